@@ -1,0 +1,32 @@
+"""Gym4ReaL: realistic reinforcement-learning environments with the Gymnasium API.
+
+Each domain (``gym4real.dam``, ``gym4real.wds``, ...) is a separate distribution that contributes a
+portion of this namespace and registers its environments through the ``gym4real.plugins`` entry
+point group. Importing ``gym4real`` registers every installed environment with Gymnasium; the heavy
+simulator imports happen only when an environment is made.
+"""
+
+# Must stay the first statement: lets the domain distributions' portions join this package.
+__path__ = __import__("pkgutil").extend_path(__path__, __name__)
+
+from gym4real.core import (
+    env_info,
+    list_envs,
+    make,
+    plugin_errors,
+    register_envs,
+)
+
+__all__ = ["benchmark", "env_info", "list_envs", "make", "plugin_errors", "register_envs"]
+
+
+
+def __getattr__(name: str) -> object:
+    if name == "benchmark":  # imports pandas: only on first use
+        from gym4real.core.benchmark import benchmark
+
+        return benchmark
+    raise AttributeError(f"module `gym4real` has no attribute `{name}`")
+
+
+register_envs()

@@ -1,0 +1,202 @@
+"""The benchmark harness: run named policies on an environment's evaluation protocol.
+
+``benchmark()`` returns a :class:`BenchmarkResult` whose ``returns`` maps each policy to its episode
+returns and ``components`` maps policy -> reward component -> per-episode sums. ``save()`` writes the
+per-episode CSV, a JSON record, a summary table and the paper's two figures (mean cumulative reward
+with a 95 % band, boxplot of returns).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pandas as pd
+
+from gym4real.core import stats
+from gym4real.core.errors import ConfigError
+from gym4real.core.policies import load_object, make_policy
+from gym4real.core.registry import env_spec, registry
+from gym4real.core.specs import BenchmarkSpec
+
+PolicyRef = str | Callable[[Any], Any]
+
+
+@dataclass
+class BenchmarkResult:
+    """Outcome of :func:`benchmark`; every mapping is keyed by policy name."""
+
+    env_id: str
+    episodes: list[dict[str, Any]]
+    returns: dict[str, list[float]] = field(default_factory=dict)
+    components: dict[str, dict[str, list[float]]] = field(default_factory=dict)
+    rewards: dict[str, list[np.ndarray]] = field(default_factory=dict)
+    final_info: dict[str, dict[str, list[float]]] = field(default_factory=dict)
+    objective: tuple[str, ...] = ()
+
+    def objective_values(self, policy: str) -> list[float]:
+        """Per-episode sum of the objective's components (the return when no objective is set)."""
+        if not self.objective:
+            return self.returns[policy]
+        comps = self.components[policy]
+        return [float(sum(comps[c][i] for c in self.objective)) for i in range(len(self.returns[policy]))]
+
+    def summary(self) -> pd.DataFrame:
+        """One row per policy: mean, std, interquartile mean and 95 % bootstrap CI of the return."""
+        rows = []
+        for name, rets in self.returns.items():
+            lo, hi = stats.bootstrap_ci(rets)
+            row: dict[str, Any] = {
+                "policy": name, "episodes": len(rets), "mean": float(np.mean(rets)),
+                "std": float(np.std(rets)), "iqm": stats.iqm(rets), "ci95_low": lo, "ci95_high": hi,
+            }
+            if self.objective:
+                row["objective_mean"] = float(np.mean(self.objective_values(name)))
+            for comp, vals in self.components[name].items():
+                row[f"{comp}_mean"] = float(np.mean(vals))
+            for key, vals in self.final_info.get(name, {}).items():
+                row[f"final_{key}_mean"] = float(np.mean(vals))
+            rows.append(row)
+        return pd.DataFrame(rows).set_index("policy")
+
+    def table(self) -> str:
+        """The summary as a fixed-width text table."""
+        cols = ["episodes", "mean", "std", "iqm", "ci95_low", "ci95_high"]
+        if self.objective:
+            cols.append("objective_mean")
+        return self.summary()[cols].to_string(float_format=lambda v: f"{v:.4g}")
+
+    def per_episode(self) -> pd.DataFrame:
+        """One row per (policy, episode) with return, objective, components and final info."""
+        rows = []
+        for name, rets in self.returns.items():
+            objective = self.objective_values(name)
+            for i, ret in enumerate(rets):
+                row: dict[str, Any] = {"policy": name, "episode": i, **_jsonable(self.episodes[i]),
+                                       "return": ret, "objective": objective[i]}
+                row.update({c: v[i] for c, v in self.components[name].items()})
+                row.update({f"final_{k}": v[i] for k, v in self.final_info.get(name, {}).items()})
+                rows.append(row)
+        return pd.DataFrame(rows)
+
+    def save(self, out: str | Path) -> list[Path]:
+        """Write ``episodes.csv``, ``summary.csv``, ``results.json`` and the two figures into ``out``."""
+        from gym4real.core import plots
+
+        out = Path(out)
+        out.mkdir(parents=True, exist_ok=True)
+        written = [out / "episodes.csv", out / "summary.csv", out / "results.json"]
+        self.per_episode().to_csv(written[0], index=False)
+        self.summary().to_csv(written[1])
+        record = {"env_id": self.env_id, "objective": list(self.objective),
+                  "episodes": [_jsonable(e) for e in self.episodes], "returns": self.returns,
+                  "components": self.components, "final_info": self.final_info}
+        written[2].write_text(json.dumps(record, indent=1))
+        written += plots.save_figures(self, out)
+        return written
+
+
+def _jsonable(episode: Mapping[str, Any]) -> dict[str, Any]:
+    return {"seed": episode.get("seed"), "options": json.dumps(episode.get("options") or {}, default=str)}
+
+
+def seeded_episodes(n: int, seed: int = 0) -> list[dict[str, Any]]:
+    """``n`` episodes with seeds ``seed, seed + 1, ...`` and no options."""
+    return [{"seed": seed + i, "options": None} for i in range(n)]
+
+
+def protocol(env_id: str) -> BenchmarkSpec:
+    """Return the registered evaluation protocol of an environment."""
+    spec = registry().benchmarks.get(env_id)
+    if spec is None:
+        raise ConfigError(f"`{env_id}` registers no evaluation protocol; pass `episodes=N` instead of \"test\"")
+    return spec
+
+
+def run_episode(env: gym.Env[Any, Any], policy: Callable[[Any], Any], seed: int | None,
+                options: dict[str, Any] | None, final_keys: Sequence[str] = ()) -> dict[str, Any]:
+    """Run one episode; return its per-step rewards, component sums and final ``info`` values."""
+    reset = getattr(policy, "reset", None)
+    if reset is not None:
+        reset(seed)
+    obs, info = env.reset(seed=seed, options=options)
+    rewards: list[float] = []
+    comps: dict[str, float] = {}
+    done = False
+    while not done:
+        obs, reward, terminated, truncated, info = env.step(policy(obs))
+        rewards.append(float(reward))
+        for key, value in info.get("reward_components", {}).items():
+            comps[key] = comps.get(key, 0.0) + float(value)
+        done = terminated or truncated
+    final = {k: float(info[k]) for k in final_keys if k in info}
+    return {"rewards": np.asarray(rewards), "components": comps, "final": final}
+
+
+def benchmark(
+    env_id: str,
+    policies: Sequence[PolicyRef] | None = None,
+    episodes: int | str = "test",
+    seed: int = 0,
+    env_kwargs: Mapping[str, Any] | None = None,
+    progress: bool = False,
+    out: str | Path | None = None,
+) -> BenchmarkResult:
+    """Run policies on an environment and collect their returns and reward components.
+
+    Args:
+        env_id: A registered id.
+        policies: Baseline names, ``kind:path`` model files or callables ``obs -> action``; defaults to the
+            baselines of the environment's protocol (or every registered baseline).
+        episodes: ``"test"`` for the paper's evaluation protocol, or a number of seeded episodes.
+        seed: First seed of numbered episodes.
+        env_kwargs: Keyword arguments of ``gymnasium.make`` (added to the protocol's).
+        progress: Show a progress bar.
+        out: If given, write the results and figures there.
+    """
+    env_spec(env_id)  # a clear error for an unknown or unavailable id
+    spec = registry().benchmarks.get(env_id)
+    kwargs: dict[str, Any] = dict(env_kwargs or {})
+    if episodes == "test":
+        kwargs = {**protocol(env_id).env_kwargs, **kwargs}
+        plan: list[dict[str, Any]] = load_object(protocol(env_id).protocol)(kwargs)
+    elif isinstance(episodes, int) and episodes > 0:
+        plan = seeded_episodes(episodes, seed)
+    else:
+        raise ConfigError(f"`episodes` must be \"test\" or a positive int, not {episodes!r}")
+    if not policies:
+        policies = list(spec.policies) if spec and spec.policies else sorted(registry().baselines.get(env_id, {}))
+    result = BenchmarkResult(env_id, plan, objective=spec.objective if spec else ())
+    final_keys = spec.final_info if spec else ()
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=len(policies) * len(plan), desc=env_id, unit="episode")
+    for ref in policies:
+        name = ref if isinstance(ref, str) else getattr(ref, "__name__", type(ref).__name__)
+        env = gym.make(env_id, **kwargs)
+        try:
+            policy = make_policy(env_id, ref, env)
+            runs = []
+            for ep in plan:
+                runs.append(run_episode(env, policy, ep.get("seed"), ep.get("options"), final_keys))
+                if bar is not None:
+                    bar.update()
+        finally:
+            env.close()
+        result.rewards[name] = [r["rewards"] for r in runs]
+        result.returns[name] = [float(r["rewards"].sum()) for r in runs]
+        keys = sorted({k for r in runs for k in r["components"]})
+        result.components[name] = {k: [r["components"].get(k, 0.0) for r in runs] for k in keys}
+        result.final_info[name] = {k: [r["final"][k] for r in runs if k in r["final"]] for k in final_keys}
+    if bar is not None:
+        bar.close()
+    if out is not None:
+        result.save(out)
+    return result

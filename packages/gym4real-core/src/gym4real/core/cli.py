@@ -1,0 +1,150 @@
+"""The ``gym4real`` command: list, info, bench, data, train, reproduce.
+
+Errors are printed as one line (``gym4real: error: ...``) with exit status 2, never a traceback
+(set ``GYM4REAL_DEBUG=1`` for one).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+from collections.abc import Callable, Sequence
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+from gym4real.core.errors import Gym4RealError
+
+
+def _cmd_list(args: argparse.Namespace) -> None:
+    from gym4real.core.registry import list_envs, plugin_errors, registry
+
+    for env_id in list_envs():
+        print(f"{env_id:34s} {registry().envs[env_id].description}")
+    for err in plugin_errors():
+        print(f"(unavailable) {err}", file=sys.stderr)
+
+
+def _cmd_info(args: argparse.Namespace) -> None:
+    from gym4real.core.info import env_info
+
+    print(json.dumps(asdict(env_info(args.env_id)), indent=2, default=str))
+
+
+def _env_kwargs(pairs: Sequence[str]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for pair in pairs:
+        key, sep, value = pair.partition("=")
+        if not sep:
+            raise Gym4RealError(f"`--env {pair}` must be KEY=VALUE (the value is read as JSON, else as text)")
+        try:
+            out[key] = json.loads(value)
+        except json.JSONDecodeError:
+            out[key] = value
+    return out
+
+
+def _cmd_bench(args: argparse.Namespace) -> None:
+    from gym4real.core.benchmark import benchmark
+
+    episodes: int | str = int(args.episodes) if args.episodes.isdigit() else args.episodes
+    policies = [p for p in args.policies.split(",") if p] if args.policies else None
+    out = Path(args.out or Path("results") / args.env_id.replace("/", "_"))
+    result = benchmark(args.env_id, policies, episodes=episodes, seed=args.seed,
+                       env_kwargs=_env_kwargs(args.env), progress=not args.quiet, out=out)
+    print(result.table())
+    print(f"results and figures written to {out}/")
+
+
+def _cmd_data(args: argparse.Namespace) -> None:
+    from gym4real.core import datasets
+    from gym4real.core.registry import registry
+
+    specs = [s for n, s in sorted(registry().datasets.items())
+             if not args.names or any(n == k or n.startswith(k.rstrip("/") + "/") for k in args.names)]
+    if args.names and not specs:
+        raise Gym4RealError(f"no dataset matches {args.names}; see `gym4real data list`")
+    for spec in specs:
+        if args.action == "list":
+            print(f"{spec.name:40s} {spec.path:60s} {spec.licence}")
+            continue
+        path = datasets.resolve(spec.name, download=args.action == "fetch")
+        print(f"ok  {spec.name:40s} {path}")
+
+
+def _cmd_train(args: argparse.Namespace) -> None:
+    from gym4real.core.rl.train import train
+
+    run = train(args.env_id, algo=args.algo, preset=args.preset, seed=args.seed, out=args.out,
+                progress=not args.quiet)
+    print(f"model written to {run.model_path}; learning curve in {run.curve_csv}")
+
+
+def _cmd_reproduce(args: argparse.Namespace) -> None:
+    from gym4real.core.rl.reproduce import reproduce
+
+    report = reproduce(args.env_id, preset=args.preset, seed=args.seed, out=args.out, progress=not args.quiet)
+    print(report)
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="gym4real", description="Realistic RL environments with the Gymnasium API.")
+    sub = p.add_subparsers(dest="command", required=True)
+    sub.add_parser("list", help="list the installed environments").set_defaults(run=_cmd_list)
+    info = sub.add_parser("info", help="describe an environment")
+    info.add_argument("env_id")
+    info.set_defaults(run=_cmd_info)
+
+    bench = sub.add_parser("bench", help="benchmark policies on an environment (table and figures)")
+    bench.add_argument("env_id")
+    bench.add_argument("--policies", help="comma-separated baselines or kind:path models (default: the protocol's)")
+    bench.add_argument("--episodes", default="test", help='"test" (the paper protocol) or a number')
+    bench.add_argument("--seed", type=int, default=0)
+    bench.add_argument("--env", action="append", default=[], metavar="KEY=VALUE", help="make() keyword argument")
+    bench.add_argument("--out", help="output folder (default results/<env>)")
+    bench.add_argument("--quiet", action="store_true", help="no progress bar")
+    bench.set_defaults(run=_cmd_bench)
+
+    data = sub.add_parser("data", help="list, fetch or verify the data files")
+    data.add_argument("action", choices=["list", "fetch", "verify"])
+    data.add_argument("names", nargs="*", help="domains or dataset names (default: all)")
+    data.set_defaults(run=_cmd_data)
+
+    train = sub.add_parser("train", help="train an RL agent with a registered preset")
+    train.add_argument("env_id")
+    train.add_argument("--algo", required=True)
+    train.add_argument("--preset", default="paper")
+    train.add_argument("--seed", type=int, default=0)
+    train.add_argument("--out", default=None)
+    train.add_argument("--quiet", action="store_true")
+    train.set_defaults(run=_cmd_train)
+
+    rep = sub.add_parser("reproduce", help="train (or load) the paper's agent and benchmark it against the baselines")
+    rep.add_argument("env_id")
+    rep.add_argument("--preset", default="paper")
+    rep.add_argument("--seed", type=int, default=0)
+    rep.add_argument("--out", default=None)
+    rep.add_argument("--quiet", action="store_true")
+    rep.set_defaults(run=_cmd_reproduce)
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; return the exit status."""
+    args = _parser().parse_args(argv)
+    run: Callable[[argparse.Namespace], None] = args.run
+    try:
+        run(args)
+    except (Gym4RealError, OSError, ValueError, KeyError) as exc:
+        if os.environ.get("GYM4REAL_DEBUG"):
+            raise
+        msg = " ".join(str(exc).split())
+        print(f"gym4real: error: {msg}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

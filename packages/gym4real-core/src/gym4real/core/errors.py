@@ -1,0 +1,27 @@
+"""The exceptions raised by Gym4ReaL. Every message says what went wrong and how to fix it."""
+
+from __future__ import annotations
+
+
+class Gym4RealError(Exception):
+    """Base class of every error raised by Gym4ReaL."""
+
+
+class ConfigError(Gym4RealError, ValueError):
+    """A configuration value, preset name or keyword override is invalid."""
+
+
+class DataFileError(Gym4RealError, FileNotFoundError):
+    """A data file is missing, corrupt or malformed."""
+
+
+class PluginLoadError(Gym4RealError, ImportError):
+    """One or more ``gym4real.plugins`` entry points failed to load or to register."""
+
+
+class EnvUnavailableError(Gym4RealError, LookupError):
+    """An environment id is unknown, or its plugin is not installed or failed to load."""
+
+
+class PolicyError(Gym4RealError, ValueError):
+    """A policy name, model file or policy output is invalid for the environment."""

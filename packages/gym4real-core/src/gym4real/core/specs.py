@@ -1,0 +1,162 @@
+"""Plain data records that plugins return from their ``gym4real_register_*`` hooks."""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+#: The characteristics and RL paradigms of the paper's Table 1, in the table's order.
+FLAGS: tuple[str, ...] = (
+    "continuous_states",
+    "continuous_actions",
+    "partially_observable",
+    "partially_controllable",
+    "non_stationary",
+    "visual_input",
+    "frequency_adaptation",
+    "hierarchical",
+    "risk_averse",
+    "imitation_learning",
+    "provably_efficient",
+    "multi_objective",
+)
+
+_ENV_ID = re.compile(r"^gym4real/[a-z0-9]+(-[a-z0-9]+)*-v\d+$")
+_SNAKE = re.compile(r"^[a-z][a-z0-9_]*$")
+_ENTRY = re.compile(r"^[\w.]+:[\w.]+$")
+
+
+def _check(ok: bool, what: str) -> None:
+    if not ok:
+        raise ValueError(what)
+
+
+@dataclass(frozen=True)
+class EnvSpec:
+    """An environment that a plugin provides.
+
+    Args:
+        id: Gymnasium id, ``gym4real/<domain>[-<variant>]-v<N>``.
+        entry_point: ``"module:Class"`` of the env, imported only at ``make()``.
+        description: One line for ``gym4real list`` and ``env_info``.
+        flags: Table-1 flags of the paper that the environment has (names from ``FLAGS``).
+        presets: Names of the packaged configuration presets; the first is the default.
+        datasets: Names of the datasets the environment reads.
+        kwargs: Default keyword arguments passed to the constructor.
+        max_episode_steps: Gymnasium time limit, or None when the env truncates by itself.
+        info_provider: ``"module:function"`` returning run-time facts for ``env_info`` (engine, versions).
+    """
+
+    id: str
+    entry_point: str
+    description: str
+    flags: frozenset[str] = frozenset()
+    presets: tuple[str, ...] = ("default",)
+    datasets: tuple[str, ...] = ()
+    kwargs: Mapping[str, Any] = field(default_factory=dict)
+    max_episode_steps: int | None = None
+    info_provider: str | None = None
+
+    def __post_init__(self) -> None:
+        _check(bool(_ENV_ID.match(self.id)), f"env id `{self.id}` is not `gym4real/<name>-v<N>`")
+        _check(bool(_ENTRY.match(self.entry_point)), f"entry point `{self.entry_point}` is not `module:attr`")
+        unknown = sorted(set(self.flags) - set(FLAGS))
+        _check(not unknown, f"unknown Table-1 flags {unknown}; expected some of {list(FLAGS)}")
+        _check(bool(self.presets), f"env `{self.id}` declares no preset")
+
+
+@dataclass(frozen=True)
+class DatasetSpec:
+    """A data file an environment reads, fetched from its upstream address and checked by hash.
+
+    Args:
+        name: Logical name, ``<domain>/<what>`` (for example ``dam/level/train``).
+        path: Path relative to a data folder (``GYM4REAL_DATA_DIR``, the cache), with ``/``.
+        sha256: Hex SHA-256 of the file.
+        url: Public upstream address of the file.
+        licence: Licence of the data.
+        description: One line on what the file holds.
+    """
+
+    name: str
+    path: str
+    sha256: str
+    url: str
+    licence: str = ""
+    description: str = ""
+
+    def __post_init__(self) -> None:
+        _check(bool(re.fullmatch(r"[0-9a-f]{64}", self.sha256)), f"dataset `{self.name}`: sha256 must be 64 hex digits")
+        _check(not self.path.startswith("/") and ".." not in self.path, f"dataset `{self.name}`: path must be relative")
+
+
+@dataclass(frozen=True)
+class BaselineSpec:
+    """A named policy for an environment.
+
+    Args:
+        env_id: The environment the policy acts in.
+        name: Lower-case snake-case name (``longest_first``).
+        entry_point: ``"module:factory"``; ``factory(env)`` returns a policy, a callable
+            ``obs -> action`` that may also define ``reset(seed)`` (called at each episode start).
+        description: One line on what the policy does.
+    """
+
+    env_id: str
+    name: str
+    entry_point: str
+    description: str = ""
+
+    def __post_init__(self) -> None:
+        _check(bool(_SNAKE.match(self.name)), f"baseline name `{self.name}` is not lower-case snake case")
+        _check(bool(_ENTRY.match(self.entry_point)), f"entry point `{self.entry_point}` is not `module:attr`")
+
+
+@dataclass(frozen=True)
+class BenchmarkSpec:
+    """The paper's evaluation protocol of an environment.
+
+    Args:
+        env_id: The environment.
+        protocol: ``"module:function"``; ``function(env_kwargs)`` returns the list of episodes, each a
+            dict with ``seed`` and ``options`` for ``reset``.
+        env_kwargs: Keyword arguments of ``make()`` for evaluation (for example ``{"preset": "test"}``).
+        policies: The baselines the default benchmark compares.
+        objective: Reward components whose sum is the paper's objective, reported beside the return.
+        final_info: ``info`` keys whose value at the end of an episode is reported (final SoH, ...).
+        description: One line on the protocol.
+    """
+
+    env_id: str
+    protocol: str
+    env_kwargs: Mapping[str, Any] = field(default_factory=dict)
+    policies: tuple[str, ...] = ()
+    objective: tuple[str, ...] = ()
+    final_info: tuple[str, ...] = ()
+    description: str = ""
+
+    def __post_init__(self) -> None:
+        _check(bool(_ENTRY.match(self.protocol)), f"protocol `{self.protocol}` is not `module:function`")
+
+
+@dataclass(frozen=True)
+class TrainingSpec:
+    """An RL training preset (hyperparameters of the paper's appendix) for an environment.
+
+    Args:
+        env_id: The environment.
+        algo: ``ppo``, ``dqn``, ``qlearning`` or ``sarsa``.
+        preset: Preset name (``paper``, ``smoke``).
+        resource: ``"package:relative/path.yaml"`` of the YAML holding the hyperparameters.
+    """
+
+    env_id: str
+    algo: str
+    preset: str
+    resource: str
+
+    def __post_init__(self) -> None:
+        _check(bool(_SNAKE.match(self.algo)), f"algo `{self.algo}` is not lower-case snake case")
+        _check(":" in self.resource, f"resource `{self.resource}` is not `package:path`")
