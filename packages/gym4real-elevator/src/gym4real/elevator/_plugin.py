@@ -1,0 +1,59 @@
+"""Registration of the elevator domain (imports nothing heavier than the core's records)."""
+
+from __future__ import annotations
+
+from gym4real.core.hookspecs import hookimpl
+from gym4real.core.specs import BaselineSpec, BenchmarkSpec, DatasetSpec, EnvSpec, TrainingSpec
+
+ENV_ID = "gym4real/elevator-v0"
+
+
+@hookimpl
+def gym4real_register_envs() -> list[EnvSpec]:
+    """The elevator environment."""
+    return [
+        EnvSpec(
+            id=ENV_ID,
+            entry_point="gym4real.elevator.env:ElevatorEnv",
+            description="Single elevator, peak-down traffic, discrete (tabular) states and actions",
+            flags=frozenset({"partially_controllable", "provably_efficient"}),
+            presets=("default", "test"),
+        )
+    ]
+
+
+@hookimpl
+def gym4real_register_datasets() -> list[DatasetSpec]:
+    """None: arrivals are synthetic."""
+    return []
+
+
+@hookimpl
+def gym4real_register_baselines() -> list[BaselineSpec]:
+    """Random, longest-first and shortest-first dispatching."""
+    return [
+        BaselineSpec(ENV_ID, "random", "gym4real.core.policies:random_policy", "uniform random actions"),
+        BaselineSpec(ENV_ID, "longest_first", "gym4real.elevator.baselines:longest_first",
+                     "serve the longest queue first"),
+        BaselineSpec(ENV_ID, "shortest_first", "gym4real.elevator.baselines:shortest_first",
+                     "serve the shortest non-empty queue first"),
+    ]
+
+
+@hookimpl
+def gym4real_register_benchmarks() -> list[BenchmarkSpec | TrainingSpec]:
+    """The paper's 30 evaluation episodes and the tabular RL presets."""
+    return [
+        BenchmarkSpec(
+            env_id=ENV_ID,
+            protocol="gym4real.elevator.evaluation:test_episodes",
+            env_kwargs={"preset": "test"},
+            policies=("random", "longest_first", "shortest_first"),
+            description="30 episodes of the seed-1234 evaluation sequence",
+        ),
+        *(
+            TrainingSpec(ENV_ID, algo, preset, f"gym4real.elevator:rl/{algo}_{preset}.yaml")
+            for algo in ("qlearning", "sarsa")
+            for preset in ("paper", "smoke")
+        ),
+    ]

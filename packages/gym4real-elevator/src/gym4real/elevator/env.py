@@ -1,0 +1,248 @@
+"""ElevatorEnv: one elevator dispatching passengers to the ground floor during peak-down traffic."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from gym4real.elevator import arrivals
+from gym4real.elevator.config import ElevatorConfig
+
+DOWN, OPEN, UP = 0, 1, 2
+
+
+class ElevatorEnv(gym.Env[dict[str, Any], int]):
+    """A single elevator serving a building during peak-down traffic (Gym4ReaL ``ElevatorEnv``).
+
+    ## Description
+    Passengers appear at floors 1..4 by per-floor Poisson processes whose rates are drawn uniformly in
+    ``[lambda_min, lambda_max]`` at each reset, and all want to reach the ground floor. Each step is one
+    second; the cabin moves ``movement_speed`` metres (two steps per floor by default). Queues hold at
+    most ``max_queue_length`` people (more arrivals balk) and the cabin ``max_capacity``.
+
+    ## Action Space
+    ``Discrete(3)``: 0 move down, 1 stay and open the doors (unload at the goal floor, then board first
+    in first out), 2 move up. Moving past the top or bottom floor is a no-op.
+
+    ## Observation Space
+    ``Dict``:
+
+    | key | space | meaning |
+    |---|---|---|
+    | ``current_position`` | ``Discrete(9)`` | height / speed (even: at a floor) |
+    | ``n_passengers`` | ``Discrete(5)`` | people in the cabin |
+    | ``floor_queues`` | ``MultiDiscrete([4] * 4)`` | people waiting at floors 1..4 |
+    | ``arrivals`` | ``MultiDiscrete([3] * 4)`` | people who appeared this second, queued next second |
+
+    ## Rewards
+    ``reward_coeff`` (10) per delivered passenger in steps that deliver; otherwise minus the people
+    waiting and riding. ``info["reward_components"]`` holds ``delivery`` and ``waiting``.
+
+    ## Starting State
+    Empty cabin and queues; the cabin at ``init_elevator_pos`` or, when null, at a uniformly drawn
+    position (possibly between floors, as in the reference).
+
+    ## Episode End
+    Truncation after ``duration`` (3600) steps. There is no termination.
+
+    ## Arguments
+    ``gymnasium.make("gym4real/elevator-v0", config=None, preset=None, render_mode=None, **overrides)``:
+    ``config`` is an :class:`ElevatorConfig`, a mapping or a YAML path; ``preset`` is ``"default"`` or
+    ``"test"``; overrides are config fields (``fidelity="upstream"``, ``reward_coeff=5.0``, ...).
+    ``render_mode="ansi"`` draws the shaft.
+
+    ## Corrected mode and ``fidelity="upstream"``
+    The default mode fixes the reference's defects; ``fidelity="upstream"`` restores them:
+
+    1. Doors: corrected, they open only at a floor (between floors action 1 stays still); upstream they
+       open anywhere and serve the floor below.
+    2. Queue transfer: corrected, last second's arrivals join the queue until it is full and only the
+       excess balks; upstream, the list-mutation bug lets only every other arrival join.
+    3. Seeding: corrected, all randomness (rates, arrivals, start) comes from ``reset(seed=)`` with an
+       independent stream per floor; upstream, the rates come from a generator seeded once with
+       ``floors.seed``, every floor's arrivals restart from ``floors.seed``, and the start is drawn from
+       the observation space (seeded here with ``floors.seed``, so it is repeatable).
+    4. Time limit: corrected ``truncated``; upstream ``terminated``.
+
+    Both modes return numpy arrays (the reference returns a list for ``arrivals``) and take the queue
+    floors relative to ``goal_floor``. ``waiting_penalty_on_delivery`` optionally charges the waiting
+    penalty in delivery steps too (the reference does not, in either mode).
+
+    ## Version History
+    * v0: Gym4ReaL v1.0 dynamics, corrected by default.
+    """
+
+    metadata = {"render_modes": ["ansi"], "render_fps": 4}  # noqa: RUF012
+
+    def __init__(
+        self,
+        config: ElevatorConfig | Mapping[str, Any] | str | Path | None = None,
+        *,
+        preset: str | None = None,
+        render_mode: str | None = None,
+        **overrides: Any,
+    ) -> None:
+        self.config = cfg = ElevatorConfig.build(config, preset, **overrides)
+        if render_mode not in (None, *self.metadata["render_modes"]):
+            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, not {render_mode!r}")
+        self.render_mode = render_mode
+        e, f = cfg.elevator, cfg.floors
+        self._upstream = cfg.fidelity == "upstream"
+        self._ppf = round(e.floor_height / e.movement_speed)  # positions per floor
+        self._n_floors = e.max_floor - e.min_floor + 1
+        self._top = (self._n_floors - 1) * self._ppf
+        self._goal = cfg.goal_floor - e.min_floor
+        self._served_floors = [i for i in range(self._n_floors) if i != self._goal]
+        self._cap = e.max_capacity
+        self._max_q = f.max_queue_length
+        n = len(self._served_floors)
+
+        self.action_space = spaces.Discrete(3)
+        self.observation_space = spaces.Dict(
+            {
+                "arrivals": spaces.MultiDiscrete([f.max_arrivals + 1] * n),
+                "current_position": spaces.Discrete(self._top + 1),
+                "floor_queues": spaces.MultiDiscrete([f.max_queue_length + 1] * n),
+                "n_passengers": spaces.Discrete(e.max_capacity + 1),
+            }
+        )
+        if self._upstream:
+            self._rate_rng = np.random.default_rng(f.seed)
+            self.observation_space["current_position"].seed(f.seed)
+        self._reset_state(np.zeros((cfg.duration + 1, n), dtype=np.int64), 0)
+
+    # -- state -------------------------------------------------------------------------------------
+
+    def _reset_state(self, arrivals_table: np.ndarray, position: int) -> None:
+        self._arrivals = arrivals_table
+        per_second = arrivals_table.sum(axis=1)
+        self._arrived_cum = np.cumsum(per_second).tolist()
+        self._rows = arrivals_table.tolist()
+        self._any_arrival = (per_second > 0).tolist()
+        self._t = 0
+        self._pos = position
+        self._load = 0
+        self._queues = [0] * self._n_floors
+        self._futures = self._rows[0]
+        self.delivered = 0
+        self.turned_away = 0
+
+    def _obs(self) -> dict[str, Any]:
+        queues = self._queues
+        return {
+            "arrivals": self._arrivals[self._t].copy(),
+            "current_position": self._pos,
+            "floor_queues": np.array([queues[i] for i in self._served_floors], dtype=np.int64),
+            "n_passengers": self._load,
+        }
+
+    def counts(self) -> dict[str, int]:
+        """Passenger accounting: arrived = waiting + riding + delivered + turned_away + pending."""
+        return {
+            "arrived": self._arrived_cum[self._t],
+            "waiting": sum(self._queues),
+            "riding": self._load,
+            "delivered": self.delivered,
+            "turned_away": self.turned_away,
+            "pending": sum(self._futures),
+        }
+
+    def _info(self, components: dict[str, float]) -> dict[str, Any]:
+        return {
+            "time": self._t,
+            "position_m": self._pos * self.config.elevator.movement_speed,
+            "delivered": self.delivered,
+            "turned_away": self.turned_away,
+            "reward_components": components,
+            "cost": 0.0,
+        }
+
+    # -- gymnasium API -----------------------------------------------------------------------------
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
+        """Start an episode: new arrival rates and arrivals, empty cabin and queues."""
+        super().reset(seed=seed)
+        cfg, f = self.config, self.config.floors
+        n = len(self._served_floors)
+        if self._upstream:
+            rates = arrivals.draw_rates(self._rate_rng, n, f.lambda_min, f.lambda_max)
+            table = arrivals.upstream_arrivals(f.seed, rates, cfg.duration, f.max_arrivals)
+        else:
+            rates = arrivals.draw_rates(self.np_random, n, f.lambda_min, f.lambda_max)
+            table = arrivals.corrected_arrivals(self.np_random, rates, cfg.duration, f.max_arrivals)
+        if cfg.init_elevator_pos is not None:
+            position = round(cfg.init_elevator_pos / cfg.elevator.movement_speed)
+        elif self._upstream:
+            position = int(self.observation_space["current_position"].sample())
+        else:
+            position = int(self.np_random.integers(self._top + 1))
+        self.rates = rates
+        self._reset_state(np.vstack([table, np.zeros((1, n), dtype=np.int64)]), position)
+        return self._obs(), self._info({"delivery": 0.0, "waiting": 0.0})
+
+    def step(self, action: int) -> tuple[dict[str, Any], float, bool, bool, dict[str, Any]]:
+        """Move or open the doors, then let last second's arrivals join the queues."""
+        if action == UP:
+            if self._pos < self._top:
+                self._pos += 1
+        elif action == DOWN:
+            if self._pos > 0:
+                self._pos -= 1
+        elif action != OPEN:
+            raise ValueError(f"action must be 0 (down), 1 (open) or 2 (up), not {action!r}")
+
+        served = 0
+        if action == OPEN and (self._upstream or self._pos % self._ppf == 0):
+            floor = self._pos // self._ppf
+            if floor == self._goal:
+                served, self._load = self._load, 0
+                self.delivered += served
+            board = min(self._cap - self._load, self._queues[floor])
+            self._queues[floor] -= board
+            self._load += board
+
+        people = self._load + sum(self._queues)
+        delivery = self.config.reward_coeff * served
+        waiting = -float(people) if (not served or self.config.waiting_penalty_on_delivery) else 0.0
+
+        if self._any_arrival[self._t]:
+            self._enqueue(self._futures)
+        self._t += 1
+        self._futures = self._rows[self._t]
+
+        done = self._t >= self.config.duration
+        info = self._info({"delivery": delivery, "waiting": waiting})
+        return self._obs(), delivery + waiting, done and self._upstream, done and not self._upstream, info
+
+    def _enqueue(self, futures: list[int]) -> None:
+        """Last second's arrivals join their queues; who does not fit balks (is turned away)."""
+        queues = self._queues
+        for k, floor in zip(futures, self._served_floors, strict=True):
+            if k:
+                wanting = (k + 1) // 2 if self._upstream else k  # upstream: every other arrival is lost
+                join = min(wanting, self._max_q - queues[floor])
+                queues[floor] += join
+                self.turned_away += k - join
+
+    def render(self) -> str | None:
+        """Draw the shaft (``render_mode="ansi"``): one line per floor, top floor first."""
+        if self.render_mode != "ansi":
+            return None
+        e = self.config.elevator
+        lines = [f"t={self._t:>5}s  load {self._load}/{self._cap}  delivered {self.delivered}"]
+        for level in range(self._top, -1, -1):
+            at_floor = level % self._ppf == 0
+            cabin = f"[{self._load}]" if level == self._pos else " | "
+            if at_floor:
+                floor = level // self._ppf
+                name = f"F{floor + e.min_floor}"
+                queue = "o" * self._queues[floor] + (" (goal)" if floor == self._goal else "")
+                lines.append(f"{name:>3} {cabin} {queue}")
+            else:
+                lines.append(f"    {cabin}")
+        return "\n".join(lines) + "\n"
