@@ -11,8 +11,12 @@ ENV_ID = "gym4real/elevator-v0"
 
 
 def obs(position: int, load: int, queues: list[int]) -> dict[str, object]:
-    return {"current_position": position, "n_passengers": load, "floor_queues": np.array(queues),
-            "arrivals": np.zeros(4, dtype=np.int64)}
+    return {
+        "current_position": position,
+        "n_passengers": load,
+        "floor_queues": np.array(queues),
+        "arrivals": np.zeros(4, dtype=np.int64),
+    }
 
 
 def test_rules_follow_the_spec() -> None:

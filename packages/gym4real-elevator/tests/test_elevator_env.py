@@ -120,7 +120,9 @@ def test_a_round_trip_delivers_and_pays_the_bonus() -> None:
 
 
 def test_waiting_penalty_on_delivery_is_optional() -> None:
-    env = ElevatorEnv(init_elevator_pos=0.0, waiting_penalty_on_delivery=True, floors={"lambda_min": 0, "lambda_max": 0})
+    env = ElevatorEnv(
+        init_elevator_pos=0.0, waiting_penalty_on_delivery=True, floors={"lambda_min": 0, "lambda_max": 0}
+    )
     env.reset(seed=0)
     env._load, env._queues[2] = 3, 1
     _, reward, *_ = env.step(OPEN)

@@ -20,7 +20,6 @@ from gym4real.core import (
 __all__ = ["benchmark", "env_info", "list_envs", "make", "plugin_errors", "register_envs"]
 
 
-
 def __getattr__(name: str) -> object:
     if name == "benchmark":  # imports pandas: only on first use
         from gym4real.core.benchmark import benchmark

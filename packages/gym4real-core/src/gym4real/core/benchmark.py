@@ -52,8 +52,13 @@ class BenchmarkResult:
         for name, rets in self.returns.items():
             lo, hi = stats.bootstrap_ci(rets)
             row: dict[str, Any] = {
-                "policy": name, "episodes": len(rets), "mean": float(np.mean(rets)),
-                "std": float(np.std(rets)), "iqm": stats.iqm(rets), "ci95_low": lo, "ci95_high": hi,
+                "policy": name,
+                "episodes": len(rets),
+                "mean": float(np.mean(rets)),
+                "std": float(np.std(rets)),
+                "iqm": stats.iqm(rets),
+                "ci95_low": lo,
+                "ci95_high": hi,
             }
             if self.objective:
                 row["objective_mean"] = float(np.mean(self.objective_values(name)))
@@ -77,8 +82,13 @@ class BenchmarkResult:
         for name, rets in self.returns.items():
             objective = self.objective_values(name)
             for i, ret in enumerate(rets):
-                row: dict[str, Any] = {"policy": name, "episode": i, **_jsonable(self.episodes[i]),
-                                       "return": ret, "objective": objective[i]}
+                row: dict[str, Any] = {
+                    "policy": name,
+                    "episode": i,
+                    **_jsonable(self.episodes[i]),
+                    "return": ret,
+                    "objective": objective[i],
+                }
                 row.update({c: v[i] for c, v in self.components[name].items()})
                 row.update({f"final_{k}": v[i] for k, v in self.final_info.get(name, {}).items()})
                 rows.append(row)
@@ -93,9 +103,14 @@ class BenchmarkResult:
         written = [out / "episodes.csv", out / "summary.csv", out / "results.json"]
         self.per_episode().to_csv(written[0], index=False)
         self.summary().to_csv(written[1])
-        record = {"env_id": self.env_id, "objective": list(self.objective),
-                  "episodes": [_jsonable(e) for e in self.episodes], "returns": self.returns,
-                  "components": self.components, "final_info": self.final_info}
+        record = {
+            "env_id": self.env_id,
+            "objective": list(self.objective),
+            "episodes": [_jsonable(e) for e in self.episodes],
+            "returns": self.returns,
+            "components": self.components,
+            "final_info": self.final_info,
+        }
         written[2].write_text(json.dumps(record, indent=1))
         written += plots.save_figures(self, out)
         return written
@@ -114,12 +129,17 @@ def protocol(env_id: str) -> BenchmarkSpec:
     """Return the registered evaluation protocol of an environment."""
     spec = registry().benchmarks.get(env_id)
     if spec is None:
-        raise ConfigError(f"`{env_id}` registers no evaluation protocol; pass `episodes=N` instead of \"test\"")
+        raise ConfigError(f'`{env_id}` registers no evaluation protocol; pass `episodes=N` instead of "test"')
     return spec
 
 
-def run_episode(env: gym.Env[Any, Any], policy: Callable[[Any], Any], seed: int | None,
-                options: dict[str, Any] | None, final_keys: Sequence[str] = ()) -> dict[str, Any]:
+def run_episode(
+    env: gym.Env[Any, Any],
+    policy: Callable[[Any], Any],
+    seed: int | None,
+    options: dict[str, Any] | None,
+    final_keys: Sequence[str] = (),
+) -> dict[str, Any]:
     """Run one episode; return its per-step rewards, component sums and final ``info`` values."""
     reset = getattr(policy, "reset", None)
     if reset is not None:
@@ -168,7 +188,7 @@ def benchmark(
     elif isinstance(episodes, int) and episodes > 0:
         plan = seeded_episodes(episodes, seed)
     else:
-        raise ConfigError(f"`episodes` must be \"test\" or a positive int, not {episodes!r}")
+        raise ConfigError(f'`episodes` must be "test" or a positive int, not {episodes!r}')
     if not policies:
         policies = list(spec.policies) if spec and spec.policies else sorted(registry().baselines.get(env_id, {}))
     result = BenchmarkResult(env_id, plan, objective=spec.objective if spec else ())

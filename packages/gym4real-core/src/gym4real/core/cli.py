@@ -52,8 +52,15 @@ def _cmd_bench(args: argparse.Namespace) -> None:
     episodes: int | str = int(args.episodes) if args.episodes.isdigit() else args.episodes
     policies = [p for p in args.policies.split(",") if p] if args.policies else None
     out = Path(args.out or Path("results") / args.env_id.replace("/", "_"))
-    result = benchmark(args.env_id, policies, episodes=episodes, seed=args.seed,
-                       env_kwargs=_env_kwargs(args.env), progress=not args.quiet, out=out)
+    result = benchmark(
+        args.env_id,
+        policies,
+        episodes=episodes,
+        seed=args.seed,
+        env_kwargs=_env_kwargs(args.env),
+        progress=not args.quiet,
+        out=out,
+    )
     print(result.table())
     print(f"results and figures written to {out}/")
 
@@ -62,8 +69,11 @@ def _cmd_data(args: argparse.Namespace) -> None:
     from gym4real.core import datasets
     from gym4real.core.registry import registry
 
-    specs = [s for n, s in sorted(registry().datasets.items())
-             if not args.names or any(n == k or n.startswith(k.rstrip("/") + "/") for k in args.names)]
+    specs = [
+        s
+        for n, s in sorted(registry().datasets.items())
+        if not args.names or any(n == k or n.startswith(k.rstrip("/") + "/") for k in args.names)
+    ]
     if args.names and not specs:
         raise Gym4RealError(f"no dataset matches {args.names}; see `gym4real data list`")
     for spec in specs:
@@ -77,8 +87,7 @@ def _cmd_data(args: argparse.Namespace) -> None:
 def _cmd_train(args: argparse.Namespace) -> None:
     from gym4real.core.rl.train import train
 
-    run = train(args.env_id, algo=args.algo, preset=args.preset, seed=args.seed, out=args.out,
-                progress=not args.quiet)
+    run = train(args.env_id, algo=args.algo, preset=args.preset, seed=args.seed, out=args.out, progress=not args.quiet)
     print(f"model written to {run.model_path}; learning curve in {run.curve_csv}")
 
 

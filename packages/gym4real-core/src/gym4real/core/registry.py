@@ -60,8 +60,7 @@ class PluginError:
         if "ModuleNotFoundError" in self.error:
             fix = f"install the missing dependency, or {fix}"
         return (
-            f"plugin `{self.plugin}` ({self.distribution} {self.version}) failed in {self.phase}: "
-            f"{self.error}; {fix}"
+            f"plugin `{self.plugin}` ({self.distribution} {self.version}) failed in {self.phase}: {self.error}; {fix}"
         )
 
 
@@ -124,8 +123,13 @@ def _record(reg: Registry, plugin: str, phase: str, exc: BaseException) -> None:
     logger.debug("traceback of plugin `%s`", plugin, exc_info=exc)
 
 
-def _collect(reg: Registry, pm: pluggy.PluginManager, hook: str, kinds: tuple[type, ...],
-             add: Callable[[Registry, str, Any], None]) -> None:
+def _collect(
+    reg: Registry,
+    pm: pluggy.PluginManager,
+    hook: str,
+    kinds: tuple[type, ...],
+    add: Callable[[Registry, str, Any], None],
+) -> None:
     for impl in getattr(pm.hook, hook).get_hookimpls():
         try:
             records = list(impl.function() or ())

@@ -33,10 +33,15 @@ def gym4real_register_baselines() -> list[BaselineSpec]:
     """Random, longest-first and shortest-first dispatching."""
     return [
         BaselineSpec(ENV_ID, "random", "gym4real.core.policies:random_policy", "uniform random actions"),
-        BaselineSpec(ENV_ID, "longest_first", "gym4real.elevator.baselines:longest_first",
-                     "serve the longest queue first"),
-        BaselineSpec(ENV_ID, "shortest_first", "gym4real.elevator.baselines:shortest_first",
-                     "serve the shortest non-empty queue first"),
+        BaselineSpec(
+            ENV_ID, "longest_first", "gym4real.elevator.baselines:longest_first", "serve the longest queue first"
+        ),
+        BaselineSpec(
+            ENV_ID,
+            "shortest_first",
+            "gym4real.elevator.baselines:shortest_first",
+            "serve the shortest non-empty queue first",
+        ),
     ]
 
 

@@ -77,7 +77,7 @@ class ElevatorEnv(gym.Env[dict[str, Any], int]):
     * v0: Gym4ReaL v1.0 dynamics, corrected by default.
     """
 
-    metadata = {"render_modes": ["ansi"], "render_fps": 4}  # noqa: RUF012
+    metadata = {"render_modes": ["ansi"], "render_fps": 4}
 
     def __init__(
         self,
@@ -164,7 +164,9 @@ class ElevatorEnv(gym.Env[dict[str, Any], int]):
 
     # -- gymnasium API -----------------------------------------------------------------------------
 
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, Any], dict[str, Any]]:
         """Start an episode: new arrival rates and arrivals, empty cabin and queues."""
         super().reset(seed=seed)
         cfg, f = self.config, self.config.floors
