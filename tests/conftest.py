@@ -1,0 +1,11 @@
+"""Root tests: cross-package checks. Data come from ../shared/data unless GYM4REAL_DATA_DIR is set."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+os.environ.setdefault("GYM4REAL_DATA_DIR", str(ROOT.parent / "shared" / "data"))
+os.environ.setdefault("GYM4REAL_OFFLINE", "1")
+os.environ.setdefault("MUJOCO_GL", "egl")

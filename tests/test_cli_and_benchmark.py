@@ -1,0 +1,100 @@
+"""The CLI and the benchmark harness, end to end on the elevator."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import gym4real
+from gym4real.core.cli import main
+from gym4real.core.errors import EnvUnavailableError, PolicyError
+from gym4real.core.registry import registry
+
+
+def test_unknown_id_suggests_the_nearest() -> None:
+    with pytest.raises(EnvUnavailableError, match="Did you mean `gym4real/elevator-v0`"):
+        gym4real.make("gym4real/elevatr-v0")
+
+
+def test_not_installed_domain_gives_the_pip_install(monkeypatch: pytest.MonkeyPatch) -> None:
+    reg = registry()
+    monkeypatch.setattr(reg, "distributions", {k: v for k, v in reg.distributions.items() if k != "dam"})
+    monkeypatch.setattr(reg, "envs", {k: v for k, v in reg.envs.items() if not k.startswith("gym4real/dam")})
+    with pytest.raises(EnvUnavailableError, match="pip install gym4real-dam"):
+        gym4real.make("gym4real/dam-v0")
+
+
+def test_benchmark_with_callable_and_baseline(tmp_path: Path) -> None:
+    always_open = lambda obs: 1  # noqa: E731
+    result = gym4real.benchmark("gym4real/elevator-v0", ["longest_first", always_open], episodes=2, out=tmp_path)
+    assert set(result.returns) == {"longest_first", "<lambda>"}
+    assert all(len(v) == 2 for v in result.returns.values())
+    for name in ("episodes.csv", "summary.csv", "results.json", "cumulative_reward.png", "returns_boxplot.png"):
+        assert (tmp_path / name).stat().st_size > 0
+    summary = pd.read_csv(tmp_path / "summary.csv", index_col="policy")
+    assert summary.loc["longest_first", "mean"] == pytest.approx(np.mean(result.returns["longest_first"]))
+    record = json.loads((tmp_path / "results.json").read_text())
+    assert record["returns"]["longest_first"] == result.returns["longest_first"]
+    lo, hi = summary.loc["longest_first", ["ci95_low", "ci95_high"]]
+    assert lo <= summary.loc["longest_first", "mean"] <= hi
+
+
+def test_benchmark_is_reproducible() -> None:
+    a = gym4real.benchmark("gym4real/elevator-v0", ["random"], episodes=2, seed=5)
+    b = gym4real.benchmark("gym4real/elevator-v0", ["random"], episodes=2, seed=5)
+    assert a.returns == b.returns
+
+
+def test_unknown_policy_is_a_clear_error() -> None:
+    with pytest.raises(PolicyError, match="longest_first"):
+        gym4real.benchmark("gym4real/elevator-v0", ["longest"], episodes=1)
+
+
+def test_cli_list_info_and_one_line_errors(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["list"]) == 0
+    assert "gym4real/elevator-v0" in capsys.readouterr().out
+    assert main(["info", "gym4real/elevator-v0"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["flags"]["provably_efficient"] is True
+    assert main(["bench", "gym4real/elevatr-v0"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("gym4real: error:") and "\n" not in err and "Traceback" not in err
+
+
+def test_cli_bench_writes_table_and_figures(tmp_path: Path) -> None:
+    out = subprocess.run(
+        [sys.executable, "-m", "gym4real.core.cli", "bench", "gym4real/elevator-v0", "--episodes", "2",
+         "--policies", "longest_first,shortest_first", "--out", str(tmp_path), "--quiet"],
+        capture_output=True, text=True, check=True,
+    )
+    assert "longest_first" in out.stdout and "iqm" in out.stdout
+    assert (tmp_path / "returns_boxplot.png").exists()
+
+
+def test_cli_data_list_and_verify(capsys: pytest.CaptureFixture[str]) -> None:
+    if not registry().datasets:
+        pytest.skip("no installed domain registers data")
+    assert main(["data", "list"]) == 0
+    absent = _absent()
+    assert main(["data", "verify"]) == (2 if absent else 0)
+    out = capsys.readouterr().out
+    assert out.count("ok   ") == len(registry().datasets) - absent
+    assert out.count("FAIL ") == absent
+
+
+def _absent() -> int:
+    from gym4real.core import datasets
+
+    missing = 0
+    for name in registry().datasets:
+        try:
+            datasets.resolve(name, download=False)
+        except gym4real.core.DataFileError:
+            missing += 1
+    return missing

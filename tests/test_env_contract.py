@@ -1,0 +1,35 @@
+"""The contract over every registered environment: check_env, determinism, pickle, vector envs."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import gym4real
+from gym4real.core.testing import check_contract
+
+IDS = gym4real.list_envs()
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_contract(env_id: str) -> None:
+    check_contract(env_id, steps=20)
+
+
+@pytest.mark.parametrize("vector", ["sync", "async"])
+@pytest.mark.parametrize("env_id", IDS)
+def test_vector_envs_of_four_copies_step(env_id: str, vector: str) -> None:
+    cls = gym.vector.SyncVectorEnv if vector == "sync" else gym.vector.AsyncVectorEnv
+    envs = cls([lambda: gym.make(env_id) for _ in range(4)])
+    try:
+        obs, _ = envs.reset(seed=42)
+        envs.action_space.seed(42)
+        for _ in range(3):
+            obs, rewards, terminated, truncated, _ = envs.step(envs.action_space.sample())
+        assert rewards.shape == (4,) and np.all(np.isfinite(rewards))
+        assert envs.single_observation_space.contains(
+            {k: v[0] for k, v in obs.items()} if isinstance(obs, dict) else obs[0]
+        )
+    finally:
+        envs.close()
