@@ -12,7 +12,9 @@ import gym4real
 from gym4real.core import registry as reg_mod
 from gym4real.core.errors import EnvUnavailableError, PluginLoadError
 
-BROKEN = importlib_metadata.EntryPoint(name="wds", value="gym4real_no_such_module._plugin", group=reg_mod.ENTRY_POINT_GROUP)
+BROKEN = importlib_metadata.EntryPoint(
+    name="wds", value="gym4real_no_such_module._plugin", group=reg_mod.ENTRY_POINT_GROUP
+)
 
 
 @pytest.fixture

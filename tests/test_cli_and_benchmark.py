@@ -69,9 +69,23 @@ def test_cli_list_info_and_one_line_errors(capsys: pytest.CaptureFixture[str]) -
 
 def test_cli_bench_writes_table_and_figures(tmp_path: Path) -> None:
     out = subprocess.run(
-        [sys.executable, "-m", "gym4real.core.cli", "bench", "gym4real/elevator-v0", "--episodes", "2",
-         "--policies", "longest_first,shortest_first", "--out", str(tmp_path), "--quiet"],
-        capture_output=True, text=True, check=True,
+        [
+            sys.executable,
+            "-m",
+            "gym4real.core.cli",
+            "bench",
+            "gym4real/elevator-v0",
+            "--episodes",
+            "2",
+            "--policies",
+            "longest_first,shortest_first",
+            "--out",
+            str(tmp_path),
+            "--quiet",
+        ],
+        capture_output=True,
+        text=True,
+        check=True,
     )
     assert "longest_first" in out.stdout and "iqm" in out.stdout
     assert (tmp_path / "returns_boxplot.png").exists()

@@ -19,8 +19,18 @@ def wheels(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     pytest.importorskip("hatchling")
     out = tmp_path_factory.mktemp("wheels")
     subprocess.run(
-        [sys.executable, "-m", "pip", "wheel", "--quiet", "--no-deps", "--no-build-isolation", "-w", str(out),
-         *map(str, PACKAGES)],
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "wheel",
+            "--quiet",
+            "--no-deps",
+            "--no-build-isolation",
+            "-w",
+            str(out),
+            *map(str, PACKAGES),
+        ],
         check=True,
     )
     return {w.name.split("-")[0].replace("_", "-"): w for w in out.glob("*.whl")}
@@ -52,8 +62,16 @@ def test_core_and_elevator_alone_list_only_the_elevator(wheels: dict[str, Path],
     venv.create(env_dir, with_pip=True)
     python = env_dir / "bin" / "python"
     subprocess.run(
-        [str(python), "-m", "pip", "install", "--quiet", "--disable-pip-version-check",
-         str(wheels["gym4real-core"]), str(wheels["gym4real-elevator"])],
+        [
+            str(python),
+            "-m",
+            "pip",
+            "install",
+            "--quiet",
+            "--disable-pip-version-check",
+            str(wheels["gym4real-core"]),
+            str(wheels["gym4real-elevator"]),
+        ],
         check=True,
     )
     code = (

@@ -76,12 +76,20 @@ def _cmd_data(args: argparse.Namespace) -> None:
     ]
     if args.names and not specs:
         raise Gym4RealError(f"no dataset matches {args.names}; see `gym4real data list`")
+    failed = []
     for spec in specs:
         if args.action == "list":
             print(f"{spec.name:40s} {spec.path:60s} {spec.licence}")
             continue
-        path = datasets.resolve(spec.name, download=args.action == "fetch")
-        print(f"ok  {spec.name:40s} {path}")
+        try:
+            path = datasets.resolve(spec.name, download=args.action == "fetch")
+        except Gym4RealError as exc:
+            failed.append(spec.name)
+            print(f"FAIL {spec.name:40s} {' '.join(str(exc).split())}")
+        else:
+            print(f"ok   {spec.name:40s} {path}")
+    if failed:
+        raise Gym4RealError(f"{len(failed)} of {len(specs)} data files unavailable: {', '.join(failed)}")
 
 
 def _cmd_train(args: argparse.Namespace) -> None:

@@ -1,0 +1,58 @@
+"""Learning curves: evaluation returns during training, as CSV and as a PNG with a 95 % band."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+
+class LearningCurve:
+    """Rows of (training progress, evaluation returns), written as ``curve.csv`` and ``curve.png``."""
+
+    def __init__(self, out: Path, unit: str) -> None:
+        self.out = out
+        self.unit = unit
+        self.rows: list[dict[str, float]] = []
+
+    def add(self, progress: int, returns: Sequence[float]) -> float:
+        """Record one evaluation; return its mean."""
+        x = np.asarray(returns, dtype=float)
+        half = 1.96 * x.std(ddof=1) / np.sqrt(len(x)) if len(x) > 1 else 0.0
+        mean = float(x.mean())
+        self.rows.append(
+            {
+                self.unit: progress,
+                "mean_return": mean,
+                "ci95_low": mean - half,
+                "ci95_high": mean + half,
+                "episodes": len(x),
+            }
+        )
+        self.write()
+        return mean
+
+    @property
+    def csv(self) -> Path:
+        """Path of the CSV file."""
+        return self.out / "curve.csv"
+
+    def write(self) -> None:
+        """Write the CSV and the figure."""
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        self.out.mkdir(parents=True, exist_ok=True)
+        frame = pd.DataFrame(self.rows)
+        frame.to_csv(self.csv, index=False)
+        fig, ax = plt.subplots(figsize=(6, 3.5))
+        ax.plot(frame[self.unit], frame["mean_return"], marker="o")
+        ax.fill_between(frame[self.unit], frame["ci95_low"], frame["ci95_high"], alpha=0.25)
+        ax.set(xlabel=self.unit, ylabel="evaluation return", title="learning curve (mean, 95 % CI)")
+        fig.tight_layout()
+        fig.savefig(self.out / "curve.png", dpi=110)
+        plt.close(fig)

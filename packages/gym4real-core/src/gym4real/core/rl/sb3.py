@@ -1,0 +1,181 @@
+"""PPO and DQN through Stable-Baselines3 (the ``rl`` extra), on the CPU with one thread.
+
+A run writes ``model.zip`` (the best model on the validation env), ``normalize.npz`` (observation
+statistics when the preset normalises observations; numpy, not pickle) and the learning curve.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from gym4real.core.errors import ConfigError, PolicyError
+
+
+def _sb3() -> Any:
+    try:
+        import stable_baselines3
+        import torch
+    except ImportError as exc:
+        msg = (
+            f"PPO/DQN need the `rl` extra ({exc.name} is missing): "
+            '`pip install torch==2.13.0 && pip install "gym4real-core[rl]"`'
+        )
+        raise PolicyError(msg) from exc
+    torch.set_num_threads(1)
+    return stable_baselines3
+
+
+ALGOS = {"ppo": "PPO", "dqn": "DQN"}
+
+
+class NormalizedPolicy:
+    """A trained SB3 model as a deterministic ``obs -> action`` policy (observations normalised as in training)."""
+
+    def __init__(self, model: Any, stats: dict[str, Any] | None) -> None:
+        self.model = model
+        self.stats = stats
+
+    def _normalize(self, obs: Any) -> Any:
+        if self.stats is None:
+            return obs
+        s, clip = self.stats, float(self.stats["clip_obs"])
+        if isinstance(obs, dict):
+            return {
+                k: np.clip((obs[k] - s[f"mean/{k}"]) / np.sqrt(s[f"var/{k}"] + s["epsilon"]), -clip, clip) for k in obs
+            }
+        return np.clip((obs - s["mean"]) / np.sqrt(s["var"] + s["epsilon"]), -clip, clip)
+
+    def __call__(self, obs: Any) -> Any:
+        """Return the model's deterministic action."""
+        action, _ = self.model.predict(self._normalize(obs), deterministic=True)
+        return action
+
+
+def load_policy(env: gym.Env[Any, Any], path: str | Path) -> NormalizedPolicy:
+    """Load ``model.zip`` (and ``normalize.npz`` beside it) as a policy for ``env``.
+
+    Raises:
+        PolicyError: Not an SB3 model, or a model trained on other observation/action spaces.
+    """
+    sb3 = _sb3()
+    path = Path(path)
+    model = None
+    for name in ALGOS.values():
+        try:
+            model = getattr(sb3, name).load(path, device="cpu")
+            break
+        except (ValueError, KeyError, AssertionError, TypeError):
+            continue
+        except Exception as exc:
+            raise PolicyError(f"`{path}` is not a Stable-Baselines3 model file: {exc}") from exc
+    if model is None:
+        raise PolicyError(f"`{path}` is not a PPO or DQN model file")
+    if model.observation_space != env.observation_space or model.action_space != env.action_space:
+        raise PolicyError(
+            f"model `{path}` was trained on observation space {model.observation_space} and action space "
+            f"{model.action_space}; this environment has {env.observation_space} and {env.action_space}"
+        )
+    stats_path = path.with_name("normalize.npz")
+    stats = dict(np.load(stats_path, allow_pickle=False)) if stats_path.exists() else None
+    return NormalizedPolicy(model, stats)
+
+
+def _save_normalization(vec: Any, path: Path) -> None:
+    rms = vec.obs_rms
+    data: dict[str, Any] = {"clip_obs": np.array(vec.clip_obs), "epsilon": np.array(vec.epsilon)}
+    if isinstance(rms, dict):
+        for k, r in rms.items():
+            data[f"mean/{k}"], data[f"var/{k}"] = r.mean, r.var
+    else:
+        data["mean"], data["var"] = rms.mean, rms.var
+    np.savez(path, **data)
+
+
+def train_sb3(env_id: str, hp: dict[str, Any], seed: int, out: Path, progress: bool) -> Path:
+    """Train PPO or DQN with a preset; keep the best model on the validation env. Returns ``model.zip``."""
+    sb3 = _sb3()
+    from stable_baselines3.common.callbacks import BaseCallback
+    from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize
+
+    from gym4real.core.benchmark import run_episode
+    from gym4real.core.rl.curves import LearningCurve
+
+    algo = hp["algo"]
+    if algo not in ALGOS:
+        raise ConfigError(f"algo `{algo}` is not one of {sorted(ALGOS)}")
+    n_envs = int(hp.get("n_envs", 1))
+    vec_cls = SubprocVecEnv if hp.get("vec_env") == "subproc" and n_envs > 1 else DummyVecEnv
+    venv = make_vec_env(env_id, n_envs=n_envs, seed=seed, env_kwargs=hp.get("env_kwargs", {}), vec_env_cls=vec_cls)
+    norm_obs, norm_rew = bool(hp.get("normalize_obs", False)), bool(hp.get("normalize_reward", False))
+    if norm_obs or norm_rew:
+        venv = VecNormalize(venv, norm_obs=norm_obs, norm_reward=norm_rew, gamma=hp["hyperparams"].get("gamma", 0.99))
+    model = getattr(sb3, ALGOS[algo])(
+        hp.get("policy", "MlpPolicy"),
+        venv,
+        policy_kwargs=hp.get("policy_kwargs"),
+        seed=seed,
+        device="cpu",
+        verbose=0,
+        **hp.get("hyperparams", {}),
+    )
+    eval_env = gym.make(env_id, **hp.get("eval_env_kwargs", hp.get("env_kwargs", {})))
+    curve = LearningCurve(out, "timesteps")
+    model_path = out / "model.zip"
+    eval_freq, eval_episodes = int(hp.get("eval_freq", 10_000)), int(hp.get("eval_episodes", 5))
+    total = int(hp["total_timesteps"])
+
+    class Evaluate(BaseCallback):  # type: ignore[misc]
+        def __init__(self) -> None:
+            super().__init__()
+            self.best = -np.inf
+            self.next_eval = min(eval_freq, total)
+            self.bar: Any = None
+
+        def _on_training_start(self) -> None:
+            if progress:
+                from tqdm.auto import tqdm
+
+                self.bar = tqdm(total=total, desc=f"{algo} {env_id}", unit="step")
+
+        def _evaluate(self) -> None:
+            stats = None
+            if isinstance(venv, VecNormalize) and norm_obs:
+                _save_normalization(venv, out / "normalize.candidate.npz")
+                stats = dict(np.load(out / "normalize.candidate.npz", allow_pickle=False))
+            policy = NormalizedPolicy(self.model, stats)
+            rets = [
+                float(run_episode(eval_env, policy, seed + 10_000 + i, None)["rewards"].sum())
+                for i in range(eval_episodes)
+            ]
+            mean = curve.add(self.num_timesteps, rets)
+            if mean > self.best:
+                self.best = mean
+                self.model.save(model_path)
+                if stats is not None:
+                    (out / "normalize.candidate.npz").replace(out / "normalize.npz")
+
+        def _on_step(self) -> bool:
+            if self.bar is not None:
+                self.bar.update(self.training_env.num_envs)
+            if self.num_timesteps >= self.next_eval:
+                self.next_eval += eval_freq
+                self._evaluate()
+            return True
+
+        def _on_training_end(self) -> None:
+            if not curve.rows or curve.rows[-1]["timesteps"] < self.num_timesteps:
+                self._evaluate()
+            if self.bar is not None:
+                self.bar.close()
+
+    out.mkdir(parents=True, exist_ok=True)
+    model.learn(total_timesteps=total, callback=Evaluate())
+    (out / "normalize.candidate.npz").unlink(missing_ok=True)
+    venv.close()
+    eval_env.close()
+    return model_path

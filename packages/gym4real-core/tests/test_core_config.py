@@ -1,0 +1,74 @@
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pytest
+from pydantic import Field
+
+from gym4real.core.config import EnvConfig, merge
+from gym4real.core.errors import ConfigError
+
+
+@pytest.fixture
+def demo_config(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> type[EnvConfig]:
+    pkg = tmp_path / "gym4real_demo_cfg"
+    (pkg / "presets").mkdir(parents=True)
+    (pkg / "__init__.py").write_text("")
+    (pkg / "presets" / "default.yaml").write_text("steps: 10\nweights: {a: 1.0, b: 2.0}\n")
+    (pkg / "presets" / "test.yaml").write_text("steps: 20\n")
+    (pkg / "presets" / "bad.yaml").write_text("- not\n- a mapping\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    sys.modules.pop("gym4real_demo_cfg", None)
+
+    class DemoConfig(EnvConfig):
+        presets_package = "gym4real_demo_cfg"
+        steps: int = Field(5, ge=1)
+        weights: dict[str, float] = {}
+
+    return DemoConfig
+
+
+def test_default_preset_then_overrides(demo_config) -> None:
+    cfg = demo_config.build()
+    assert cfg.steps == 10 and cfg.weights == {"a": 1.0, "b": 2.0} and cfg.fidelity == "corrected"
+    cfg = demo_config.build(preset="test", fidelity="upstream")
+    assert cfg.steps == 20 and cfg.fidelity == "upstream"
+    cfg = demo_config.build({"weights": {"b": 3.0}})
+    assert cfg.weights == {"a": 1.0, "b": 3.0}
+    assert demo_config.build(cfg) is cfg
+    assert demo_config.presets() == ["bad", "default", "test"]
+
+
+def test_yaml_file_config(demo_config, tmp_path) -> None:
+    path = tmp_path / "mine.yaml"
+    path.write_text("steps: 7\n")
+    assert demo_config.build(str(path)).steps == 7
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "needle"),
+    [
+        ({"steps": "many"}, "field `steps`"),
+        ({"steps": 0}, "field `steps`"),
+        ({"stepz": 3}, "unknown field `stepz`"),
+        ({"fidelity": "exact"}, "field `fidelity`"),
+        ({"preset": "nope"}, "unknown preset `nope`"),
+        ({"preset": "bad"}, "must hold a mapping"),
+    ],
+)
+def test_errors_name_the_field(demo_config, kwargs, needle) -> None:
+    preset = kwargs.pop("preset", None)
+    with pytest.raises(ConfigError, match=needle):
+        demo_config.build(preset=preset, **kwargs)
+
+
+def test_config_is_frozen_and_json_serialisable(demo_config) -> None:
+    cfg = demo_config.build()
+    with pytest.raises(ValueError):
+        cfg.steps = 3  # type: ignore[misc]
+    assert demo_config.model_validate_json(cfg.model_dump_json()) == cfg
+
+
+def test_merge_is_deep() -> None:
+    assert merge({"a": {"x": 1, "y": 2}, "b": 1}, {"a": {"y": 3}}) == {"a": {"x": 1, "y": 3}, "b": 1}
