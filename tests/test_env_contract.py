@@ -26,7 +26,7 @@ def test_vector_envs_of_four_copies_step(env_id: str, vector: str) -> None:
         obs, _ = envs.reset(seed=42)
         envs.action_space.seed(42)
         for _ in range(3):
-            obs, rewards, terminated, truncated, _ = envs.step(envs.action_space.sample())
+            obs, rewards, _, _, _ = envs.step(envs.action_space.sample())
         assert rewards.shape == (4,) and np.all(np.isfinite(rewards))
         assert envs.single_observation_space.contains(
             {k: v[0] for k, v in obs.items()} if isinstance(obs, dict) else obs[0]
