@@ -82,6 +82,7 @@ def _env_with_queue(fidelity: str, position_m: float) -> ElevatorEnv:
     env = ElevatorEnv(fidelity=fidelity, init_elevator_pos=position_m, floors={"lambda_min": 0, "lambda_max": 0})
     env.reset(seed=0)
     env._queues[1] = 2  # two people wait at floor 1
+    env._queue_obs[0] = 2
     return env
 
 
@@ -124,7 +125,7 @@ def test_waiting_penalty_on_delivery_is_optional() -> None:
         init_elevator_pos=0.0, waiting_penalty_on_delivery=True, floors={"lambda_min": 0, "lambda_max": 0}
     )
     env.reset(seed=0)
-    env._load, env._queues[2] = 3, 1
+    env._load, env._queues[2], env._queue_obs[1] = 3, 1, 1
     _, reward, *_ = env.step(OPEN)
     assert reward == 30.0 - 1.0
 

@@ -100,6 +100,11 @@ class ElevatorEnv(gym.Env[dict[str, Any], int]):
         self._served_floors = [i for i in range(self._n_floors) if i != self._goal]
         self._cap = e.max_capacity
         self._max_q = f.max_queue_length
+        self._speed = e.movement_speed
+        self._duration = cfg.duration
+        self._coeff = cfg.reward_coeff
+        self._always_wait_penalty = cfg.waiting_penalty_on_delivery
+        self._obs_index = {floor: i for i, floor in enumerate(self._served_floors)}
         n = len(self._served_floors)
 
         self.action_space = spaces.Discrete(3)
@@ -128,16 +133,16 @@ class ElevatorEnv(gym.Env[dict[str, Any], int]):
         self._pos = position
         self._load = 0
         self._queues = [0] * self._n_floors
+        self._queue_obs = np.zeros(len(self._served_floors), dtype=np.int64)  # mirror of the served queues
         self._futures = self._rows[0]
         self.delivered = 0
         self.turned_away = 0
 
     def _obs(self) -> dict[str, Any]:
-        queues = self._queues
         return {
             "arrivals": self._arrivals[self._t].copy(),
             "current_position": self._pos,
-            "floor_queues": np.array([queues[i] for i in self._served_floors], dtype=np.int64),
+            "floor_queues": self._queue_obs.copy(),
             "n_passengers": self._load,
         }
 
@@ -155,7 +160,7 @@ class ElevatorEnv(gym.Env[dict[str, Any], int]):
     def _info(self, components: dict[str, float]) -> dict[str, Any]:
         return {
             "time": self._t,
-            "position_m": self._pos * self.config.elevator.movement_speed,
+            "position_m": self._pos * self._speed,
             "delivered": self.delivered,
             "turned_away": self.turned_away,
             "reward_components": components,
@@ -205,19 +210,20 @@ class ElevatorEnv(gym.Env[dict[str, Any], int]):
                 served, self._load = self._load, 0
                 self.delivered += served
             board = min(self._cap - self._load, self._queues[floor])
-            self._queues[floor] -= board
-            self._load += board
+            if board:
+                self._queues[floor] -= board
+                self._queue_obs[self._obs_index[floor]] -= board
+                self._load += board
 
-        people = self._load + sum(self._queues)
-        delivery = self.config.reward_coeff * served
-        waiting = -float(people) if (not served or self.config.waiting_penalty_on_delivery) else 0.0
+        delivery = self._coeff * served
+        waiting = -float(self._load + sum(self._queues)) if (not served or self._always_wait_penalty) else 0.0
 
         if self._any_arrival[self._t]:
             self._enqueue(self._futures)
         self._t += 1
         self._futures = self._rows[self._t]
 
-        done = self._t >= self.config.duration
+        done = self._t >= self._duration
         info = self._info({"delivery": delivery, "waiting": waiting})
         return self._obs(), delivery + waiting, done and self._upstream, done and not self._upstream, info
 
@@ -229,6 +235,7 @@ class ElevatorEnv(gym.Env[dict[str, Any], int]):
                 wanting = (k + 1) // 2 if self._upstream else k  # upstream: every other arrival is lost
                 join = min(wanting, self._max_q - queues[floor])
                 queues[floor] += join
+                self._queue_obs[self._obs_index[floor]] += join
                 self.turned_away += k - join
 
     def render(self) -> str | None:
