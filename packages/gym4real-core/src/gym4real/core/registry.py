@@ -111,7 +111,7 @@ def _load_plugins(reg: Registry) -> pluggy.PluginManager:
     try:
         pm.check_pending()
     except pluggy.PluginValidationError as exc:
-        _record(reg, exc.plugin_name or "?", "hook validation", exc)
+        _record(reg, pm.get_name(exc.plugin) or "?", "hook validation", exc)
     return pm
 
 

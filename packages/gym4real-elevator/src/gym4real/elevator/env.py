@@ -107,18 +107,19 @@ class ElevatorEnv(gym.Env[dict[str, Any], int]):
         self._obs_index = {floor: i for i, floor in enumerate(self._served_floors)}
         n = len(self._served_floors)
 
-        self.action_space = spaces.Discrete(3)
+        self._position_space = spaces.Discrete(self._top + 1)
+        self.action_space = spaces.Discrete(3)  # type: ignore[assignment]
         self.observation_space = spaces.Dict(
             {
                 "arrivals": spaces.MultiDiscrete([f.max_arrivals + 1] * n),
-                "current_position": spaces.Discrete(self._top + 1),
+                "current_position": self._position_space,
                 "floor_queues": spaces.MultiDiscrete([f.max_queue_length + 1] * n),
                 "n_passengers": spaces.Discrete(e.max_capacity + 1),
             }
         )
         if self._upstream:
             self._rate_rng = np.random.default_rng(f.seed)
-            self.observation_space["current_position"].seed(f.seed)
+            self._position_space.seed(f.seed)
         self._reset_state(np.zeros((cfg.duration + 1, n), dtype=np.int64), 0)
 
     # -- state -------------------------------------------------------------------------------------
@@ -185,7 +186,7 @@ class ElevatorEnv(gym.Env[dict[str, Any], int]):
         if cfg.init_elevator_pos is not None:
             position = round(cfg.init_elevator_pos / cfg.elevator.movement_speed)
         elif self._upstream:
-            position = int(self.observation_space["current_position"].sample())
+            position = int(self._position_space.sample())
         else:
             position = int(self.np_random.integers(self._top + 1))
         self.rates = rates
