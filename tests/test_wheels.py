@@ -50,7 +50,10 @@ def test_domain_wheels_hold_only_their_folder(wheels: dict[str, Path]) -> None:
         files = _modules(wheel)
         if dist == "gym4real-core":
             assert "gym4real/__init__.py" in files
-            assert all(f.startswith(("gym4real/core/", "gym4real/__init__.py", "gym4real/py.typed")) for f in files)
+            assert all(
+                f.startswith(("gym4real/core/", "gym4real/wrappers/", "gym4real/__init__.py", "gym4real/py.typed"))
+                for f in files
+            )
         else:
             domain = dist.removeprefix("gym4real-")
             assert files and all(f.startswith(f"gym4real/{domain}/") for f in files), (dist, files)

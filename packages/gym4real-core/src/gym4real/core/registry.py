@@ -42,6 +42,9 @@ CANONICAL_IDS: tuple[str, ...] = (
     "gym4real/wds-v0",
 )
 
+#: Entry point of the vector-reward variants (``gym4real/dam-mo-v0``) of multi-objective envs.
+MULTI_OBJECTIVE = "gym4real.wrappers.multi_objective:MultiObjective"
+
 logger = logging.getLogger("gym4real.plugins")
 
 
@@ -256,15 +259,16 @@ def register_envs() -> list[str]:
     import gymnasium
 
     done = []
+
+    def register(env_id: str, entry_point: str, kwargs: dict[str, Any], max_steps: int | None) -> None:
+        old = gymnasium.registry.get(env_id)
+        if old is None or old.entry_point != entry_point or old.kwargs != kwargs:
+            gymnasium.register(id=env_id, entry_point=entry_point, kwargs=kwargs, max_episode_steps=max_steps)
+            done.append(env_id)
+
     for spec in registry().envs.values():
-        old = gymnasium.registry.get(spec.id)
-        if old is not None and old.entry_point == spec.entry_point:
-            continue
-        gymnasium.register(
-            id=spec.id,
-            entry_point=spec.entry_point,
-            kwargs=dict(spec.kwargs),
-            max_episode_steps=spec.max_episode_steps,
-        )
-        done.append(spec.id)
+        register(spec.id, spec.entry_point, dict(spec.kwargs), spec.max_episode_steps)
+        if "multi_objective" in spec.flags:  # the paper's MORL envs also get a vector-reward id
+            name, _, version = spec.id.rpartition("-v")
+            register(f"{name}-mo-v{version}", MULTI_OBJECTIVE, {"env": spec.id, **spec.kwargs}, None)
     return done

@@ -78,6 +78,7 @@ class ElevatorEnv(gym.Env[dict[str, Any], int]):
     """
 
     metadata = {"render_modes": ["ansi"], "render_fps": 4}
+    reward_component_names = ("delivery", "waiting")
 
     def __init__(
         self,
