@@ -260,15 +260,21 @@ def register_envs() -> list[str]:
 
     done = []
 
-    def register(env_id: str, entry_point: str, kwargs: dict[str, Any], max_steps: int | None) -> None:
+    def register(env_id: str, entry_point: str, kwargs: dict[str, Any], spec: EnvSpec | None = None) -> None:
         old = gymnasium.registry.get(env_id)
         if old is None or old.entry_point != entry_point or old.kwargs != kwargs:
-            gymnasium.register(id=env_id, entry_point=entry_point, kwargs=kwargs, max_episode_steps=max_steps)
+            gymnasium.register(
+                id=env_id,
+                entry_point=entry_point,
+                kwargs=kwargs,
+                max_episode_steps=spec.max_episode_steps if spec else None,
+                vector_entry_point=spec.vector_entry_point if spec else None,
+            )
             done.append(env_id)
 
     for spec in registry().envs.values():
-        register(spec.id, spec.entry_point, dict(spec.kwargs), spec.max_episode_steps)
+        register(spec.id, spec.entry_point, dict(spec.kwargs), spec)
         if "multi_objective" in spec.flags:  # the paper's MORL envs also get a vector-reward id
             name, _, version = spec.id.rpartition("-v")
-            register(f"{name}-mo-v{version}", MULTI_OBJECTIVE, {"env": spec.id, **spec.kwargs}, None)
+            register(f"{name}-mo-v{version}", MULTI_OBJECTIVE, {"env": spec.id, **spec.kwargs})
     return done

@@ -47,6 +47,8 @@ class EnvSpec:
         kwargs: Default keyword arguments passed to the constructor.
         max_episode_steps: Gymnasium time limit, or None when the env truncates by itself.
         info_provider: ``"module:function"`` returning run-time facts for ``env_info`` (engine, versions).
+        vector_entry_point: ``"module:Class"`` of a native batched ``VectorEnv`` (``gym.make_vec(...,
+            vectorization_mode="vector_entry_point")``), if the env has one.
     """
 
     id: str
@@ -58,6 +60,7 @@ class EnvSpec:
     kwargs: Mapping[str, Any] = field(default_factory=dict)
     max_episode_steps: int | None = None
     info_provider: str | None = None
+    vector_entry_point: str | None = None
 
     def __post_init__(self) -> None:
         _check(bool(_ENV_ID.match(self.id)), f"env id `{self.id}` is not `gym4real/<name>-v<N>`")

@@ -18,6 +18,7 @@ def gym4real_register_envs() -> list[EnvSpec]:
             description="Single elevator, peak-down traffic, discrete (tabular) states and actions",
             flags=frozenset({"partially_controllable", "provably_efficient"}),
             presets=("default", "test"),
+            vector_entry_point="gym4real.elevator.vector:ElevatorVectorEnv",
         )
     ]
 
