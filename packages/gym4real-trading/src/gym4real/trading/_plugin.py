@@ -1,0 +1,97 @@
+"""Registration of the trading domain (imports nothing heavier than the core's records)."""
+
+from __future__ import annotations
+
+from gym4real.core.hookspecs import hookimpl
+from gym4real.core.specs import BaselineSpec, BenchmarkSpec, DatasetSpec, EnvSpec, TrainingSpec
+
+ENV_ID = "gym4real/trading-v0"
+PRESETS = (
+    "default",
+    "train",
+    "validation",
+    "test",
+    "paper_train",
+    "paper_validation",
+    "paper_test",
+    "paper_benchmark",
+)
+
+
+@hookimpl
+def gym4real_register_envs() -> list[EnvSpec]:
+    """The trading environment."""
+    return [
+        EnvSpec(
+            id=ENV_ID,
+            entry_point="gym4real.trading.env:TradingEnv",
+            description="Intraday EUR/USD trading on historical mid prices, one trading day per episode",
+            flags=frozenset(
+                {
+                    "continuous_states",
+                    "partially_observable",
+                    "partially_controllable",
+                    "non_stationary",
+                    "frequency_adaptation",
+                    "risk_averse",
+                }
+            ),
+            presets=PRESETS,
+            datasets=("trading/eurusd_1h_ask_2017", "trading/eurusd_1h_2017-2018"),
+        )
+    ]
+
+
+@hookimpl
+def gym4real_register_datasets() -> list[DatasetSpec]:
+    """The two real hourly EUR/USD files (the paper's HistData files are fetched by users)."""
+    return [
+        DatasetSpec(
+            name="trading/eurusd_1h_ask_2017",
+            path="trading/eurusd_1h_ask_2017.csv",
+            sha256="28398b7edff9f74860d35a6f3c263f08e15c55264316dc07737d459d8688d7aa",
+            url="https://raw.githubusercontent.com/AminHP/gym-anytrading/master/gym_anytrading/datasets/data/FOREX_EURUSD_1H_ASK.csv",
+            licence="MIT (gym-anytrading)",
+            description="EUR/USD hourly ask OHLCV, 2017, Dukascopy export (UTC)",
+        ),
+        DatasetSpec(
+            name="trading/eurusd_1h_2017-2018",
+            path="trading/eurusd_1h_2017-2018.csv",
+            sha256="81e977905a006cc8fbc034ebdb83c999a8ed6ba00191dc7ea5ef5b386fb74a82",
+            url="https://raw.githubusercontent.com/kernc/backtesting.py/0.6.6/backtesting/test/EURUSD.csv",
+            licence="AGPL-3.0 (backtesting.py)",
+            description="EUR/USD hourly OHLCV, 2017-04-19 .. 2018-02-07 (UTC)",
+        ),
+    ]
+
+
+@hookimpl
+def gym4real_register_baselines() -> list[BaselineSpec]:
+    """Buy&Hold, Sell&Hold, always flat and random."""
+    return [
+        BaselineSpec(ENV_ID, "buy_and_hold", "gym4real.trading.baselines:buy_and_hold", "always long (B&H)"),
+        BaselineSpec(ENV_ID, "sell_and_hold", "gym4real.trading.baselines:sell_and_hold", "always short (S&H)"),
+        BaselineSpec(ENV_ID, "flat", "gym4real.trading.baselines:flat", "never in the market"),
+        BaselineSpec(ENV_ID, "random", "gym4real.core.policies:random_policy", "uniform random actions"),
+    ]
+
+
+@hookimpl
+def gym4real_register_benchmarks() -> list[BenchmarkSpec | TrainingSpec]:
+    """Every day of the evaluation split, in order; the PPO and DQN presets."""
+    return [
+        BenchmarkSpec(
+            env_id=ENV_ID,
+            protocol="gym4real.trading.evaluation:test_episodes",
+            env_kwargs={"preset": "test"},
+            policies=("buy_and_hold", "sell_and_hold", "flat", "random"),
+            objective=("pnl", "fees"),
+            final_info=("cum_pnl", "cum_fees"),
+            description="every trading day of the test split, in order (daily P&L in USD)",
+        ),
+        *(
+            TrainingSpec(ENV_ID, algo, preset, f"gym4real.trading:rl/{algo}_{preset}.yaml")
+            for algo in ("ppo", "dqn")
+            for preset in ("paper", "smoke")
+        ),
+    ]
