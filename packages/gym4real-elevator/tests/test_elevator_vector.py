@@ -21,7 +21,7 @@ def test_batched_copies_follow_the_single_env_step_by_step() -> None:
             for key in o:
                 assert np.array_equal(obs[key][i], o[key]), (t, i, key)
         actions = rng.integers(0, 3, size=n)
-        obs, rewards, terminated, truncated, info = vec.step(actions)
+        obs, rewards, terminated, truncated, _ = vec.step(actions)
         outs = [e.step(int(a)) for e, a in zip(singles, actions, strict=True)]
         single_obs = [o[0] for o in outs]
         np.testing.assert_array_equal(rewards, [o[1] for o in outs])
