@@ -39,7 +39,7 @@ def _test_deps(dist: Path) -> list[str]:
 
 
 def _editable(dist: Path) -> str:
-    return f"-e{dist}[rl,mo]" if dist == CORE else f"-e{dist}"
+    return f"-e{dist}[rl,mo,offline]" if dist == CORE else f"-e{dist}"
 
 
 @nox.session
@@ -73,7 +73,7 @@ for _dist in PACKAGES:
 @nox.session
 def bench(session: nox.Session) -> None:
     """The main job: `gym4real bench` (args after `--`, default the elevator) with a table and figures."""
-    session.install(*(_editable(d).removesuffix("[rl,mo]") for d in PACKAGES))
+    session.install(*(_editable(d).removesuffix("[rl,mo,offline]") for d in PACKAGES))
     args = session.posargs or ["gym4real/elevator-v0"]
     session.run("gym4real", "bench", *args, env={k: v for k, v in ENV.items() if k != "GYM4REAL_OFFLINE"})
 

@@ -106,6 +106,13 @@ def _cmd_reproduce(args: argparse.Namespace) -> None:
     print(report)
 
 
+def _cmd_dataset(args: argparse.Namespace) -> None:
+    from gym4real.core.offline import collect
+
+    path = collect(args.env_id, args.policy, args.episodes, args.out, seed=args.seed, env_kwargs=_env_kwargs(args.env))
+    print(f"Minari dataset written to {path} (load it with MINARI_DATASETS_PATH={args.out})")
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="gym4real", description="Realistic RL environments with the Gymnasium API.")
     sub = p.add_subparsers(dest="command", required=True)
@@ -145,6 +152,16 @@ def _parser() -> argparse.ArgumentParser:
     rep.add_argument("--out", default=None)
     rep.add_argument("--quiet", action="store_true")
     rep.set_defaults(run=_cmd_reproduce)
+    dataset = sub.add_parser("dataset", help="offline-RL datasets")
+    dsub = dataset.add_subparsers(dest="dataset_command", required=True)
+    collect = dsub.add_parser("collect", help="write episodes of a policy as a Minari dataset")
+    collect.add_argument("env_id")
+    collect.add_argument("--policy", required=True, help="a baseline name or kind:path model")
+    collect.add_argument("--episodes", type=int, default=10)
+    collect.add_argument("--seed", type=int, default=0)
+    collect.add_argument("--env", action="append", default=[], metavar="KEY=VALUE", help="make() keyword argument")
+    collect.add_argument("--out", required=True, help="folder of the Minari datasets")
+    collect.set_defaults(run=_cmd_dataset)
     return p
 
 
