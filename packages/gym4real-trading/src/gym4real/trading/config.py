@@ -129,10 +129,12 @@ class FixesSection(_Section):
     """
 
     close_fee_on_new_position: bool | None = Field(
-        None, description="Forced close at the end of the day charges the position just taken (reference: the previous one)."
+        None,
+        description="Forced close at the end of the day charges the position just taken (reference: the previous one).",
     )
     full_session: bool | None = Field(
-        None, description="Decide until the last full holding interval of the session (reference: stops 2 intervals early)."
+        None,
+        description="Decide until the last full holding interval of the session (reference: stops 2 intervals early).",
     )
     continuous_features: bool | None = Field(
         None,
@@ -165,7 +167,9 @@ class TradingConfig(EnvConfig):
         False,
         description="Days in order: reset(seed=s) takes day s mod n, reset() the next day (false: a random day).",
     )
-    ffill_limit: int = Field(5, ge=0, description="Longest gap (minutes) forward-filled; days with longer gaps are dropped.")
+    ffill_limit: int = Field(
+        5, ge=0, description="Longest gap (minutes) forward-filled; days with longer gaps are dropped."
+    )
     capital: float = Field(100_000.0, gt=0, description="Notional of a position (EUR).")
     fees: float = Field(1.0, ge=0, description="Cost per unit of position change (reward units).")
     trading_open: int = Field(8, ge=0, le=23, description="Session start hour (market time).")

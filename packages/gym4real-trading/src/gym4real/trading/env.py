@@ -98,7 +98,7 @@ class TradingEnv(gym.Env[np.ndarray, int]):
     * v0: Gym4ReaL v1.0 TradingEnv, corrected by default.
     """
 
-    metadata: dict[str, Any] = {"render_modes": []}  # noqa: RUF012
+    metadata: dict[str, Any] = {"render_modes": []}
 
     def __init__(
         self,
@@ -185,7 +185,9 @@ class TradingEnv(gym.Env[np.ndarray, int]):
 
     # -- Gymnasium API -------------------------------------------------------------------------------
 
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
         """Start a trading day flat (see the class docstring for how the day is chosen)."""
         super().reset(seed=seed)
         n = len(self.days)
@@ -254,4 +256,3 @@ class TradingEnv(gym.Env[np.ndarray, int]):
 
     def __repr__(self) -> str:
         return f"TradingEnv(split={self.config.split!r}, days={len(self.days)}, fidelity={self.config.fidelity!r})"
-

@@ -32,6 +32,7 @@ class SplitData:
     deltas: np.ndarray  # (n_days, n_bars, number_of_deltas) float64, unscaled
     dropped: dict[dt.date, str] = field(default_factory=dict)
     sources: list[str] = field(default_factory=list)
+    scaler: MinMaxScaler | None = None  # fitted on this split when it is a train split
 
     def report(self) -> dict[str, Any]:
         """Kept and dropped day counts, with the reasons."""
@@ -80,22 +81,19 @@ def _processing(cfg: TradingConfig) -> processing.Processing:
     )
 
 
-def _key(cfg: TradingConfig, name: SplitName) -> str:
+def _key(cfg: TradingConfig, name: SplitName, proc: processing.Processed) -> str:
     section = cfg.split_section(name)
     record = {
-        "source": cfg.split_source(name).model_dump(),
+        "processed": proc.key,
         "bounds": [d.isoformat() for d in section.bounds()],
         "years": section.years,
         "anomalous": sorted(d.isoformat() for d in cfg.anomalous_days),
-        "processing": _processing(cfg).__dict__,
-        "deltas": [cfg.number_of_deltas, cfg.offset],
-        "data_dir": cfg.data_dir,
+        "deltas": [cfg.number_of_deltas, cfg.offset, cfg.fix("continuous_features")],
     }
     return json.dumps(record, sort_keys=True, default=str)
 
 
 _memo: dict[str, SplitData] = {}
-_scalers: dict[str, MinMaxScaler] = {}
 
 
 def split_data(cfg: TradingConfig, name: SplitName | None = None) -> SplitData:
@@ -105,18 +103,20 @@ def split_data(cfg: TradingConfig, name: SplitName | None = None) -> SplitData:
         DataFileError: Missing or malformed data, or no complete trading day in the split.
     """
     name = name or cfg.split
-    key = _key(cfg, name)
+    section = cfg.split_section(name)
+    lo, hi = section.bounds()
+    years = section.years or list(range(lo.year, hi.year + 1))
+    proc = processing.load(cfg.split_source(name), years, _processing(cfg), cfg.data_dir)
+    key = _key(cfg, name, proc)
     if key not in _memo:
-        _memo[key] = _build(cfg, name)
+        _memo[key] = _build(cfg, name, proc)
     return _memo[key]
 
 
-def _build(cfg: TradingConfig, name: SplitName) -> SplitData:
+def _build(cfg: TradingConfig, name: SplitName, proc: processing.Processed) -> SplitData:
     section, source = cfg.split_section(name), cfg.split_source(name)
     lo, hi = section.bounds()
-    years = section.years or list(range(lo.year, hi.year + 1))
-    params = _processing(cfg)
-    proc = processing.load(source, years, params, cfg.data_dir)
+    params = proc.params
     anomalous = set(cfg.anomalous_days)
     days = [d for d in proc.kept if section.contains(d) and d not in anomalous]
     dropped = {d: r for d, r in proc.dropped.items() if section.contains(d)}
@@ -126,9 +126,11 @@ def _build(cfg: TradingConfig, name: SplitName) -> SplitData:
             f"no complete trading day in split `{name}` ({lo} .. {hi}) of {proc.sources or source.kind}: "
             f"{len(dropped)} weekday(s) dropped {processing.drop_summary(dropped)}"
         )
-        spacing = _median_spacing(proc)
-        if spacing > cfg.bar_minutes:
-            msg += f"; the quotes are about {spacing} min apart, coarser than `bar_minutes` ({cfg.bar_minutes})"
+        if proc.spacing_minutes > cfg.bar_minutes:
+            msg += (
+                f"; the quotes are about {proc.spacing_minutes:g} min apart, coarser than `bar_minutes` "
+                f"({cfg.bar_minutes}): use a bar of at least {proc.spacing_minutes:g} min"
+            )
         raise DataFileError(msg)
     bpd, ses = params.bars_per_day, params.session
     n_bars = ses.stop - ses.start
@@ -150,20 +152,12 @@ def _build(cfg: TradingConfig, name: SplitName) -> SplitData:
     return SplitData(name, days, mid, time, deltas, dropped, proc.sources)
 
 
-def _median_spacing(proc: processing.Processed) -> int:
-    valid = np.flatnonzero(~np.isnan(proc.mid))
-    if len(valid) < 2:
-        return 0
-    return int(np.median(np.diff(valid))) * proc.params.bar_minutes
-
-
 def scaler(cfg: TradingConfig) -> MinMaxScaler:
     """The min-max scaler of the changes, fitted on the train split only (memoised)."""
-    key = _key(cfg, "train")
-    if key not in _scalers:
-        train = split_data(cfg, "train")
-        _scalers[key] = MinMaxScaler().fit(train.deltas.reshape(-1, cfg.number_of_deltas))
-    return _scalers[key]
+    train = split_data(cfg, "train")
+    if train.scaler is None:
+        train.scaler = MinMaxScaler().fit(train.deltas.reshape(-1, cfg.number_of_deltas))
+    return train.scaler
 
 
 def feature_names(cfg: TradingConfig) -> list[str]:

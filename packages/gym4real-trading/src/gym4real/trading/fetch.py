@@ -36,7 +36,9 @@ def _check_network(timeout: float) -> None:
     try:
         socket.create_connection((HOST, 443), timeout=timeout).close()
     except OSError as exc:
-        raise DataFileError(f"cannot reach {HOST} (no network: {exc}); download the files from {HISTDATA_PAGE}") from exc
+        raise DataFileError(
+            f"cannot reach {HOST} (no network: {exc}); download the files from {HISTDATA_PAGE}"
+        ) from exc
 
 
 def _downloader() -> Callable[..., str]:
@@ -54,7 +56,9 @@ def _extract(zip_path: Path, dest: Path) -> Path:
         with zipfile.ZipFile(zip_path) as zf:
             members = [n for n in zf.namelist() if n.lower().endswith(".csv")]
             if len(members) != 1:
-                raise DataFileError(f"`{zip_path}` holds {members}, expected one .csv (is {HOST} serving an error page?)")
+                raise DataFileError(
+                    f"`{zip_path}` holds {members}, expected one .csv (is {HOST} serving an error page?)"
+                )
             target = dest / Path(members[0]).name
             tmp = target.with_suffix(".part")
             tmp.write_bytes(zf.read(members[0]))

@@ -79,6 +79,8 @@ class Processed:
     kept: list[dt.date]
     dropped: dict[dt.date, str]
     sources: list[str] = field(default_factory=list)
+    spacing_minutes: float = 0.0
+    key: str = ""
 
     @property
     def n_days(self) -> int:
@@ -156,7 +158,9 @@ def process(quotes: q.Quotes, params: Processing, sources: Sequence[str] = ()) -
         else:
             gap = _longest_run(np.isnan(raw_s[i])) * params.bar_minutes
             dropped[day] = f"gap of {gap} min, longer than ffill_limit ({params.ffill_limit} min)"
-    return Processed(first_day.astype(object), mid, params, kept, dropped, list(sources))
+    filled = np.flatnonzero(~np.isnan(raw))
+    spacing = float(np.median(np.diff(filled))) * params.bar_minutes if len(filled) > 1 else 0.0
+    return Processed(first_day.astype(object), mid, params, kept, dropped, list(sources), spacing)
 
 
 def drop_summary(dropped: dict[dt.date, str]) -> dict[str, int]:
@@ -196,7 +200,7 @@ def file_sha256(path: Path) -> str:
 
 
 def histdata_folders(data_dir: str | Path | None) -> list[Path]:
-    """Folders searched for HistData files: ``<data_dir>``, ``$GYM4REAL_DATA_DIR`` and the cache (each ``/trading/histdata``)."""
+    """Folders searched for HistData files: `<data_dir>`, `$GYM4REAL_DATA_DIR`, the cache (each `/trading/histdata`)."""
     roots = [Path(data_dir).expanduser()] if data_dir else []
     if os.environ.get(datasets.DATA_DIR_ENV):
         roots.append(Path(os.environ[datasets.DATA_DIR_ENV]).expanduser())
@@ -204,9 +208,7 @@ def histdata_folders(data_dir: str | Path | None) -> list[Path]:
     return [r / HISTDATA_SUBDIR for r in roots]
 
 
-def source_files(
-    source: SourceSection, years: Sequence[int], data_dir: str | Path | None
-) -> list[tuple[Path, str]]:
+def source_files(source: SourceSection, years: Sequence[int], data_dir: str | Path | None) -> list[tuple[Path, str]]:
     """The files of a source for some years, with their SHA-256.
 
     Raises:
@@ -285,6 +287,7 @@ def _save(proc: Processed, path: Path) -> None:
         "kept": [d.isoformat() for d in proc.kept],
         "dropped": {d.isoformat(): r for d, r in proc.dropped.items()},
         "sources": proc.sources,
+        "spacing_minutes": proc.spacing_minutes,
         "version": PROCESSING_VERSION,
     }
     table = pa.table({"time": time, "mid": proc.mid}).replace_schema_metadata({"gym4real": json.dumps(meta)})
@@ -306,6 +309,7 @@ def _load(path: Path) -> Processed:
         kept=[dt.date.fromisoformat(d) for d in meta["kept"]],
         dropped={dt.date.fromisoformat(d): r for d, r in meta["dropped"].items()},
         sources=list(meta["sources"]),
+        spacing_minutes=float(meta["spacing_minutes"]),
     )
 
 
@@ -324,11 +328,13 @@ def load(source: SourceSection, years: Sequence[int], params: Processing, data_d
     if path.is_file():
         try:
             proc = _load(path)
+            proc.key = key
         except Exception as exc:  # a corrupt cache file is rebuilt
             logger.warning("ignoring unreadable cache file %s: %s", path, exc)
     if proc is None:
         names = [p.name for p, _ in files]
         proc = process(read_source(source, [p for p, _ in files]), params, names)
+        proc.key = key
         try:
             _save(proc, path)
         except OSError as exc:

@@ -151,7 +151,9 @@ def _column(path: Path, df: pd.DataFrame, ref: str | int, role: str) -> str:
     cols = [str(c) for c in df.columns]
     if isinstance(ref, int):
         if not 0 <= ref < len(cols):
-            raise DataFileError(f"`{path}` has {len(cols)} columns {cols}; `source.columns.{role}` = {ref} is out of range")
+            raise DataFileError(
+                f"`{path}` has {len(cols)} columns {cols}; `source.columns.{role}` = {ref} is out of range"
+            )
         return str(df.columns[ref])
     if ref not in cols:
         raise DataFileError(f"`{path}` has no column `{ref}` (`source.columns.{role}`); its columns are {cols}")
