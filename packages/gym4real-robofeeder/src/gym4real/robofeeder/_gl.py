@@ -1,0 +1,99 @@
+"""Choice of the headless OpenGL backend, made before MuJoCo is imported.
+
+MuJoCo fixes its OpenGL backend from ``MUJOCO_GL`` when ``mujoco`` is first imported, so every module
+of this package that imports ``mujoco`` imports this one first. A ``MUJOCO_GL`` set by the user is
+always respected. Otherwise EGL is used when an EGL device can be initialised (Mesa's llvmpipe on a
+CPU-only machine), else OSMesa when ``libOSMesa`` is present; when neither works ``MUJOCO_GL`` is left
+unset and :func:`require_backend` raises an error that says what to install.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+import os
+import sys
+
+_EGL_PLATFORM_DEVICE_EXT = 0x313F
+
+#: What was chosen and why (reported by ``gym4real info``).
+CHOICE: dict[str, str] = {}
+
+
+def _egl_works() -> bool:
+    """Whether an EGL device can be initialised (the way MuJoCo's EGL context opens one)."""
+    name = ctypes.util.find_library("EGL")
+    if not name:
+        return False
+    try:
+        lib = ctypes.CDLL(name)
+        get_proc = lib.eglGetProcAddress
+        get_proc.restype = ctypes.c_void_p
+        get_proc.argtypes = [ctypes.c_char_p]
+        query_addr = get_proc(b"eglQueryDevicesEXT")
+        display_addr = get_proc(b"eglGetPlatformDisplayEXT")
+        if not query_addr or not display_addr:
+            return False
+        query = ctypes.CFUNCTYPE(ctypes.c_uint, ctypes.c_int, ctypes.POINTER(ctypes.c_void_p),
+                                 ctypes.POINTER(ctypes.c_int))(query_addr)
+        get_display = ctypes.CFUNCTYPE(ctypes.c_void_p, ctypes.c_uint, ctypes.c_void_p, ctypes.c_void_p)(display_addr)
+        lib.eglInitialize.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]
+        lib.eglTerminate.argtypes = [ctypes.c_void_p]
+        devices = (ctypes.c_void_p * 8)()
+        count = ctypes.c_int(0)
+        if not query(8, devices, ctypes.byref(count)):
+            return False
+        for i in range(count.value):
+            display = get_display(_EGL_PLATFORM_DEVICE_EXT, devices[i], None)
+            if display and lib.eglInitialize(display, None, None):
+                lib.eglTerminate(display)
+                return True
+    except (OSError, AttributeError, TypeError):
+        return False
+    return False
+
+
+def _osmesa_available() -> bool:
+    name = ctypes.util.find_library("OSMesa")
+    if not name:
+        return False
+    try:
+        ctypes.CDLL(name)
+    except OSError:
+        return False
+    return True
+
+
+def select_backend() -> str:
+    """Set ``MUJOCO_GL`` (if unset and MuJoCo not yet imported) and return the backend in use."""
+    if CHOICE:
+        return CHOICE["backend"]
+    current = os.environ.get("MUJOCO_GL", "").strip().lower()
+    if current:
+        CHOICE.update(backend=current, reason="MUJOCO_GL set by the user")
+    elif "mujoco" in sys.modules:
+        CHOICE.update(backend="", reason="mujoco was imported before gym4real.robofeeder with MUJOCO_GL unset")
+    elif _egl_works():
+        os.environ["MUJOCO_GL"] = "egl"
+        CHOICE.update(backend="egl", reason="EGL device initialised")
+    elif _osmesa_available():
+        os.environ["MUJOCO_GL"] = "osmesa"
+        CHOICE.update(backend="osmesa", reason="no usable EGL device; libOSMesa found")
+    else:
+        CHOICE.update(backend="", reason="neither an EGL device nor libOSMesa was found")
+    return CHOICE["backend"]
+
+
+def backend_error(cause: BaseException | None = None) -> str:
+    """The message of a rendering failure: what was tried and how to fix it."""
+    chosen = CHOICE.get("backend") or "none"
+    why = CHOICE.get("reason", "")
+    detail = f" ({type(cause).__name__}: {cause})" if cause is not None else ""
+    return (
+        f"cannot create a headless MuJoCo renderer with backend `{chosen}` ({why}){detail}. "
+        "Install Mesa EGL (`apt-get install libegl1 libgl1-mesa-dri`) or OSMesa (`apt-get install libosmesa6`), "
+        "and set `MUJOCO_GL=egl` or `MUJOCO_GL=osmesa` before anything imports `mujoco`."
+    )
+
+
+select_backend()

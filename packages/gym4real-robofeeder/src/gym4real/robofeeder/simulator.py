@@ -1,0 +1,410 @@
+"""The robot cell: spawn, the scripted pick cycle with its timed controller, success test, camera.
+
+One :class:`Simulator` per env instance owns its model copy, its data, its IK scratch data and its
+renderer; nothing is process-global (the reference's ``mjcb_control`` callback, defect 4, becomes the
+explicit tick loop of :meth:`Simulator.pick`, with the reference's tick timings).
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass, field
+
+from gym4real.robofeeder import _gl  # noqa: F401  (chooses MUJOCO_GL before mujoco is imported)
+
+import mujoco  # noqa: E402
+import numpy as np  # noqa: E402
+
+from gym4real.robofeeder.camera import CameraModel  # noqa: E402
+from gym4real.robofeeder.config import RoboFeederConfig  # noqa: E402
+from gym4real.robofeeder.kinematics import ArmKinematics  # noqa: E402
+from gym4real.robofeeder.rendering import LazyRenderer  # noqa: E402
+from gym4real.robofeeder.scene import build_model  # noqa: E402
+
+#: Robot base height (m): IK targets of the reference are in the base frame.
+BASE_Z = 0.11
+PICK_Z = 0.11  # base frame
+PRE_PICK_LIFT = 0.25
+PLACE = np.array([-0.0882, 0.4929, 0.4596])  # base frame
+KEY_TICKS = (5, 10, 15)
+CLOSE_AFTER_TICK = 9
+ARM_TICKS = 20
+EXTRA_TICKS = 5
+SAMPLES_PER_SEGMENT = 5
+#: Points of the flange frame the IK places: between the finger origins, or the left finger origin.
+CENTRE_TOOL = np.array([0.0, 0.0, 0.075])
+LEFT_FINGER_TOOL = np.array([0.0, -0.0073, 0.075])
+#: Top of the bin floor `PickBoxPlane` (m, world).
+PLANE_TOP = 0.18535
+#: Output tray: placed objects rest on the floor here, out of the camera's view (corrected mode).
+TRAY = np.array([0.45, -0.45])
+#: An object is at rest below these speeds (m/s, rad/s).
+REST_LINEAR = 5e-3
+REST_ANGULAR = 0.1
+SETTLE_CHUNK = 20
+#: Graspable spawns keep the grasp angle this far (rad) inside [0, pi].
+GRASP_MARGIN = 0.1
+MIN_SETTLE = 40
+
+
+@dataclass
+class PickOutcome:
+    """What a pick attempt did.
+
+    Attributes:
+        feasible: Whether the target was attempted (inside the reachable window, IK solved).
+        success: Whether an object ended near the success point.
+        picked: Index of the object picked, or None.
+        target: Commanded world point (x, y, z) of the tool.
+        theta: Commanded joint-6 angle (rad).
+        gripper_yaw: World yaw of the flange x axis at the planned pick pose (rad).
+        ik_error: Position error of the pick-pose IK (m).
+        steps: Physics steps simulated.
+        initial_sites: World positions of the object sites before the pick (N x 3).
+        initial_quats: Object quaternions (w, x, y, z) before the pick (N x 4).
+    """
+
+    feasible: bool
+    success: bool
+    picked: int | None
+    target: np.ndarray
+    theta: float
+    gripper_yaw: float = float("nan")
+    ik_error: float = float("nan")
+    steps: int = 0
+    initial_sites: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    initial_quats: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
+
+
+def yaw_of(quat: np.ndarray) -> np.ndarray:
+    """World yaw (rad) of the body x axis for quaternion(s) (w, x, y, z); shape (..., 4) -> (...)."""
+    w, x, y, z = np.moveaxis(np.asarray(quat, dtype=float), -1, 0)
+    return np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+
+
+def tilt_of(quat: np.ndarray) -> np.ndarray:
+    """Angle (rad) between the body z axis and the world vertical for quaternion(s) (w, x, y, z)."""
+    w, x, y, z = np.moveaxis(np.asarray(quat, dtype=float), -1, 0)
+    norm2 = w * w + x * x + y * y + z * z
+    zz = 1.0 - 2.0 * (x * x + y * y) / np.where(norm2 > 0, norm2, 1.0)
+    return np.arccos(np.clip(zz, -1.0, 1.0))
+
+
+@functools.lru_cache(maxsize=8)
+def _rest_pose(n_objects: int, data_dir: str | None) -> tuple[float, tuple[float, ...]]:
+    """Height and body tilt quaternion of an object lying on the bin floor (found once by dropping one)."""
+    model = build_model(n_objects, data_dir)
+    data = mujoco.MjData(model)
+    for i in range(n_objects):
+        data.qpos[7 * i: 7 * i + 7] = [-0.30 - 0.05 * i, 0.40 - 0.05 * i, 0.21, 1.0, 0.0, 0.0, 0.0]
+    mujoco.mj_step(model, data, nstep=1200)
+    q = data.qpos[3:7].copy()
+    yaw = yaw_of(q)
+    half = np.array([np.cos(-yaw / 2), 0.0, 0.0, np.sin(-yaw / 2)])
+    tilt = np.zeros(4)
+    mujoco.mju_mulQuat(tilt, half, q)
+    return float(data.qpos[2]), tuple(float(v) for v in tilt / np.linalg.norm(tilt))
+
+
+class Simulator:
+    """The RoboFeeder cell of one environment instance.
+
+    Args:
+        config: The environment configuration.
+    """
+
+    def __init__(self, config: RoboFeederConfig) -> None:
+        self.config = config
+        self.n = config.n_objects
+        self.model = build_model(self.n, config.data_dir)
+        self.data = mujoco.MjData(self.model)
+        m = self.model
+        self.dt = float(m.opt.timestep)
+        self.object_bodies = np.array([m.body(f"object{i}").id for i in range(self.n)])
+        self.object_qadr = np.array([m.jnt_qposadr[m.body_jntadr[b]] for b in self.object_bodies])
+        self.object_dofadr = np.array([m.jnt_dofadr[m.body_jntadr[b]] for b in self.object_bodies])
+        self.object_sites = np.array([m.site(f"site_obj{i}").id for i in range(self.n)])
+        centred = config.fix("centred_tool")
+        self.kin = ArmKinematics(m, CENTRE_TOOL if centred else LEFT_FINGER_TOOL)
+        self.arm_qadr = self.kin.qadr
+        self.picked = np.zeros(self.n, dtype=bool)
+        self.last_q = np.zeros(6)
+        mujoco.mj_forward(m, self.data)
+        cam = m.camera("top_down").id
+        self.camera = CameraModel.from_pose(
+            self.data.cam_xpos[cam], self.data.cam_xmat[cam].reshape(3, 3), float(m.cam_fovy[cam]),
+            config.image_size, config.image_size,
+        )
+        centre = self.camera.pixel_to_world(np.array([(config.image_size - 1) / 2.0] * 2))
+        self.home_q = self.kin.solve(
+            np.array([centre[0], centre[1], BASE_Z + PICK_Z + PRE_PICK_LIFT]), np.zeros(6), fixed_j6=np.pi / 2
+        ).q
+        self._yaw_cache: dict[tuple[float, float], float] = {}
+        self.renderer = LazyRenderer(m, config.image_size, config.image_size, effects=config.render_effects)
+        self.physics_steps = 0
+
+    # ------------------------------------------------------------------ state
+    def close(self) -> None:
+        """Free the renderer."""
+        self.renderer.close()
+
+    def render(self, camera: str = "top_down") -> np.ndarray:
+        """RGB frame (uint8, H x W x 3) of ``camera``."""
+        mujoco.mj_forward(self.model, self.data)
+        return self.renderer.render(self.data, camera)
+
+    def object_positions(self) -> np.ndarray:
+        """Body origins of the objects (N x 3, world)."""
+        return np.array([self.data.qpos[a: a + 3] for a in self.object_qadr])
+
+    def object_quats(self) -> np.ndarray:
+        """Object quaternions (N x 4, w x y z, as stored)."""
+        return np.array([self.data.qpos[a + 3: a + 7] for a in self.object_qadr])
+
+    def site_positions(self) -> np.ndarray:
+        """World positions of the object grasp sites (N x 3), after kinematics."""
+        mujoco.mj_kinematics(self.model, self.data)
+        return self.data.site_xpos[self.object_sites].copy()
+
+    def object_centres(self) -> np.ndarray:
+        """World centres of the objects' footprints (N x 3): body point (0.0025, 0.0004, 0)."""
+        mujoco.mj_kinematics(self.model, self.data)
+        local = np.array([0.0025, 0.0004, 0.0])
+        out = []
+        for b in self.object_bodies:
+            out.append(self.data.xpos[b] + self.data.xmat[b].reshape(3, 3) @ local)
+        return np.array(out)
+
+    # ------------------------------------------------------------------ reset
+    def _step(self, n: int) -> None:
+        if n > 0:
+            mujoco.mj_step(self.model, self.data, nstep=n)
+            self.physics_steps += n
+
+    def _at_rest(self) -> bool:
+        v = self.data.qvel
+        for adr, picked in zip(self.object_dofadr, self.picked, strict=True):
+            if picked:
+                continue
+            if np.abs(v[adr: adr + 3]).max() > REST_LINEAR or np.abs(v[adr + 3: adr + 6]).max() > REST_ANGULAR:
+                return False
+        return True
+
+    def settle(self, max_steps: int) -> None:
+        """Step the physics ``max_steps`` times, or until every object is at rest (corrected mode)."""
+        if not self.config.fix("settle_until_rest"):
+            self._step(max_steps)
+            return
+        done = 0
+        while done < max_steps:
+            n = min(SETTLE_CHUNK, max_steps - done)
+            self._step(n)
+            done += n
+            if done >= MIN_SETTLE and self._at_rest():
+                break
+
+    def spawn_points(self, rng: np.random.Generator) -> np.ndarray:
+        """Normalised image coordinates (N x 2) with pairwise distances of at least ``spawn.min_distance``."""
+        s = self.config.spawn
+        for _ in range(10_000):
+            xy = np.column_stack([rng.uniform(*s.x_range, self.n), rng.uniform(*s.y_range, self.n)])
+            if self.n == 1:
+                return xy
+            gaps = np.linalg.norm(xy[:, None] - xy[None], axis=-1)[np.triu_indices(self.n, 1)]
+            if (gaps >= s.min_distance).all():
+                return xy
+        msg = f"cannot place {self.n} objects `spawn.min_distance` apart in the spawn area; lower `n_objects`"
+        raise ValueError(msg)
+
+    def reset(self, rng: np.random.Generator, placements: np.ndarray | None = None,
+              yaws: np.ndarray | None = None, graspable_only: bool = False) -> None:
+        """Reset the cell and spawn the objects.
+
+        Args:
+            rng: The env's generator (positions and orientations).
+            placements: Optional normalised image coordinates (N x 2) instead of random ones.
+            yaws: Optional object yaws (rad) instead of random orientations.
+            graspable_only: Redraw each yaw until the object can be grasped with joint 6 in [0, pi].
+        """
+        m, d, cfg = self.model, self.data, self.config
+        mujoco.mj_resetData(m, d)
+        self.picked[:] = False
+        self.last_q = np.zeros(6)
+        at_rest = cfg.fix("spawn_at_rest") and cfg.spawn.upright
+        if cfg.spawn.shuffle or placements is not None:
+            xy = self.spawn_points(rng) if placements is None else np.asarray(placements, dtype=float)
+            world = self.camera.pixel_to_world((xy + 1.0) * (cfg.image_size / 2.0))
+            rest_z, tilt = _rest_pose(self.n, cfg.data_dir) if at_rest else (cfg.spawn.height, (1.0, 0, 0, 0))
+            for i, adr in enumerate(self.object_qadr):
+                if yaws is not None:
+                    quat = np.array([np.cos(yaws[i] / 2), 0.0, 0.0, np.sin(yaws[i] / 2)])
+                else:
+                    quat = self._draw_quat(rng, world[i] if graspable_only else None)
+                if at_rest:
+                    rested = np.zeros(4)
+                    mujoco.mju_mulQuat(rested, quat, np.asarray(tilt))
+                    quat = rested
+                d.qpos[adr: adr + 7] = [world[i, 0], world[i, 1], rest_z, *quat]
+        mujoco.mj_forward(m, d)
+        steps = min(cfg.settle_steps, MIN_SETTLE) if at_rest and cfg.spawn.shuffle else cfg.settle_steps
+        self.settle(steps)
+        mujoco.mj_step(m, d)  # the reference's get_state() steps once before rendering
+        self.physics_steps += 1
+
+    def _draw_quat(self, rng: np.random.Generator, graspable_at: np.ndarray | None) -> np.ndarray:
+        """The reference's orientation draw: 4 values of the grid -1, -0.8, ..., 1 (qw := v0, qz := v1 if upright)."""
+        grid = np.arange(-1.0, 1.1, 0.2)
+        for _ in range(200):
+            v = rng.choice(grid, 4)
+            quat = np.array([v[0], 0.0, 0.0, v[1]]) if self.config.spawn.upright else v
+            norm = np.linalg.norm(quat)
+            quat = quat / norm if norm > 1e-9 else np.array([1.0, 0.0, 0.0, 0.0])
+            if graspable_at is None:
+                return quat
+            theta = self.grasp_angle(graspable_at, float(yaw_of(quat)))
+            if GRASP_MARGIN <= theta <= np.pi - GRASP_MARGIN:
+                return quat
+        return quat
+
+    # ------------------------------------------------------------------ picking
+    def reachable(self, pixel: np.ndarray) -> bool:
+        """Whether an image point lies in the reachable window (``workspace``, scaled to the image size)."""
+        w = self.config.workspace
+        scale = self.config.image_size / 300.0
+        u, v = float(pixel[0]), float(pixel[1])
+        size = self.config.image_size
+        return bool(w.x_limit * scale <= u <= size - 1 - w.x_limit * scale and w.y_down * scale <= v <= w.y_up * scale)
+
+    def plan(self, xy: np.ndarray, theta: float) -> tuple[np.ndarray, float, float, bool]:
+        """The reference's 20 waypoints (joints 1-6) to pre-pick, pick, retreat and place.
+
+        Returns:
+            (plan (20 x 6), pick-pose IK error (m), planned gripper yaw (rad), whether every IK converged).
+        """
+        centred = self.config.fix("centred_tool")
+        fixed = theta if centred else None
+        pick = np.array([xy[0], xy[1], BASE_Z + PICK_Z])
+        pre = pick + np.array([0.0, 0.0, PRE_PICK_LIFT])
+        place = PLACE + np.array([0.0, 0.0, BASE_Z])
+        start = self.last_q.copy()
+        # the reference seeds from the last pose (always zero there); the arm straight up is singular for a
+        # downward tool, so a solution above the bin centre is the fallback (and the first seed when corrected)
+        seeds = [self.home_q, start] if centred else [start, self.home_q]
+        wp0 = self.kin.solve_from(pre, seeds, fixed_j6=fixed)
+        wp1 = self.kin.solve_from(pick, [wp0.q, self.home_q], fixed_j6=fixed)
+        wp3 = self.kin.solve_from(place, [wp0.q, self.home_q], fixed_j6=fixed)
+        _, rot = self.kin.forward(np.concatenate([wp1.q[:5], [theta]]))
+        gripper_yaw = float(np.arctan2(rot[1, 0], rot[0, 0]))
+        s = np.linspace(0.0, 1.0, SAMPLES_PER_SEGMENT)[:, None]
+        segments = [(start, wp0.q), (wp0.q, wp1.q), (wp1.q, wp0.q), (wp0.q, wp3.q)]
+        rows = np.vstack([a + s * (b - a) for a, b in segments])
+        ok = wp0.ok and wp1.ok and wp3.ok
+        return rows, wp1.position_error, gripper_yaw, ok
+
+    def grasp_angle(self, xy: np.ndarray, yaw: float) -> float:
+        """Joint-6 angle (rad, in [0, 2 pi)) aligning the gripper x axis with ``yaw`` at a pick at world ``xy``.
+
+        At the planned pick pose the gripper yaw is ``c - theta`` (joint 6 turns about the downward tool
+        axis), with ``c`` the yaw at theta = 0; angles above pi are outside joint 6's control range.
+        """
+        key = (round(float(xy[0]), 4), round(float(xy[1]), 4))
+        c = self._yaw_cache.get(key)
+        if c is None:
+            centred = self.config.fix("centred_tool")
+            pick = np.array([key[0], key[1], BASE_Z + PICK_Z])  # a pure function of the cache key
+            fixed = 0.0 if centred else None
+            wp0 = self.kin.solve_from(pick + np.array([0.0, 0.0, PRE_PICK_LIFT]), [self.home_q], fixed_j6=fixed)
+            wp1 = self.kin.solve_from(pick, [wp0.q, self.home_q], fixed_j6=fixed)
+            _, rot = self.kin.forward(np.concatenate([wp1.q[:5], [0.0]]))
+            c = float(np.arctan2(rot[1, 0], rot[0, 0]))
+            if len(self._yaw_cache) > 4096:
+                self._yaw_cache.clear()
+            self._yaw_cache[key] = c
+        return float((c - yaw) % (2.0 * np.pi))
+
+    def _run_controller(self, plan: np.ndarray, theta: float) -> int:
+        """Execute the plan with the reference's tick timings; return the physics steps taken."""
+        c = self.config.controller
+        d = self.data
+        d.ctrl[6:8] = c.open_gripper
+        d.ctrl[5] = theta
+        gripper = c.open_gripper
+        last_tick = d.time
+        limit = c.short_pause
+        tick = extra = 0
+        closing = False
+        steps = 0
+        while True:
+            # advance to the first step at which `time - last_tick > limit` (as the reference's callback sees it)
+            t = d.time
+            n = 0
+            while not t - last_tick > limit:
+                t += self.dt
+                n += 1
+            self._step(n)
+            steps += n
+            last_tick = d.time
+            if closing:
+                gripper -= c.delta_gripper
+                d.ctrl[6:8] = max(gripper, 0.0)
+                if gripper <= c.close_gripper:
+                    closing = False
+                    limit = c.long_pause
+            elif tick < ARM_TICKS:
+                d.ctrl[0:5] = plan[tick][:5]
+                limit = c.long_pause if tick in KEY_TICKS else c.short_pause
+                if tick == CLOSE_AFTER_TICK:
+                    closing = True
+                tick += 1
+            else:
+                extra += 1
+                if extra >= EXTRA_TICKS:
+                    return steps
+
+    def pick(self, xy: np.ndarray, theta: float, pixel: np.ndarray | None = None) -> PickOutcome:
+        """Attempt to pick at world ``xy`` with joint 6 at ``theta``.
+
+        Args:
+            xy: Target (x, y) on the picking plane (m, world).
+            theta: Joint-6 angle (rad), clamped to its control range [0, pi].
+            pixel: The image point the target came from (for the reachable-window check).
+        """
+        cfg = self.config
+        theta = float(np.clip(theta, 0.0, np.pi))
+        target = np.array([xy[0], xy[1], BASE_Z + PICK_Z])
+        sites, quats = self.site_positions(), self.object_quats()
+        plan, ik_error, yaw, ik_ok = self.plan(np.asarray(xy, dtype=float), theta)
+        outcome = PickOutcome(feasible=True, success=False, picked=None, target=target, theta=theta,
+                              gripper_yaw=yaw, ik_error=ik_error, initial_sites=sites, initial_quats=quats)
+        if cfg.fix("unfeasible_targets"):
+            in_window = pixel is None or self.reachable(pixel)
+            if not (in_window and ik_ok):
+                outcome.feasible = False
+                return outcome
+        before = self.physics_steps
+        self._run_controller(plan, theta)
+        final = self.object_positions()
+        goal = np.asarray(cfg.success_point)
+        for i in range(self.n):
+            if not self.picked[i] and np.linalg.norm(final[i] - goal) < cfg.success_radius:
+                self.picked[i] = True
+                outcome.success, outcome.picked = True, i
+                break
+        if cfg.fix("release_at_place"):
+            self.data.ctrl[6:8] = cfg.controller.open_gripper
+            self.last_q = plan[-1].copy()
+            self.last_q[5] = theta
+            self._park_picked()
+        self.settle(cfg.post_pick_steps)
+        outcome.steps = self.physics_steps - before
+        return outcome
+
+    def _park_picked(self) -> None:
+        """Move placed objects to the output tray, at rest (they leave the scene as on a real feeder)."""
+        rest_z, tilt = _rest_pose(self.n, self.config.data_dir)
+        for k, (i, adr) in enumerate(zip(np.flatnonzero(self.picked), self.object_qadr[self.picked], strict=True)):
+            spot = TRAY + np.array([0.06 * k, 0.0])
+            self.data.qpos[adr: adr + 7] = [spot[0], spot[1], rest_z - PLANE_TOP, *tilt]
+            dof = self.object_dofadr[i]
+            self.data.qvel[dof: dof + 6] = 0.0
+        mujoco.mj_forward(self.model, self.data)
