@@ -230,3 +230,20 @@ def test_config_errors_name_the_field() -> None:
         TradingConfig.build(persistance=5)
     with pytest.raises(ConfigError, match="years"):
         TradingConfig.build(splits={"test": {"years": [2022], "start": "2022-01-01", "end": "2022-02-01"}})
+
+
+def test_render_modes() -> None:
+    env = TradingEnv(render_mode="ansi")
+    env.reset(options={"day": "2017-03-01"})
+    env.step(2)
+    env.step(0)
+    line = env.render()
+    assert isinstance(line, str) and line.startswith("2017-03-01 10:00") and "[LS" in line
+    picture = TradingEnv(render_mode="rgb_array")
+    picture.reset(seed=0)
+    picture.step(2)
+    img = picture.render()
+    assert isinstance(img, np.ndarray) and img.shape == (120, 240, 3) and img.dtype == np.uint8
+    assert (img[..., 1] > img[..., 0] + 50).any()  # the long stretch is drawn green
+    with pytest.raises(ValueError, match="render_mode"):
+        TradingEnv(render_mode="human")

@@ -15,11 +15,11 @@ from gym4real.trading import features
 from gym4real.trading.config import TradingConfig
 
 SHORT, FLAT, LONG = 0, 1, 2
-_ACTIONS = {SHORT: SHORT, FLAT: FLAT, LONG: LONG}
+_ACTIONS: dict[Any, int] = {SHORT: SHORT, FLAT: FLAT, LONG: LONG}
 _INT_TYPES = frozenset({int, np.int64, np.int32, np.intp})
 
 
-class TradingEnv(gym.Env[np.ndarray, int]):
+class TradingEnv(gym.Env[np.ndarray, Any]):
     """Intraday trading of one currency pair on historical mid prices (Gym4ReaL ``TradingEnv``).
 
     ## Description
@@ -98,7 +98,7 @@ class TradingEnv(gym.Env[np.ndarray, int]):
     * v0: Gym4ReaL v1.0 TradingEnv, corrected by default.
     """
 
-    metadata: dict[str, Any] = {"render_modes": []}
+    metadata: dict[str, Any] = {"render_modes": ["ansi", "rgb_array"], "render_fps": 4}
 
     def __init__(
         self,
@@ -109,8 +109,8 @@ class TradingEnv(gym.Env[np.ndarray, int]):
         **overrides: Any,
     ) -> None:
         self.config = cfg = TradingConfig.build(config, preset, **overrides)
-        if render_mode is not None:
-            raise ValueError(f"TradingEnv has no render mode; got render_mode={render_mode!r}")
+        if render_mode not in (None, *self.metadata["render_modes"]):
+            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, not {render_mode!r}")
         self.render_mode = render_mode
         self.data = features.split_data(cfg)
         self._dtype = np.float32 if cfg.fix("float32_observations") else np.float64
@@ -159,6 +159,7 @@ class TradingEnv(gym.Env[np.ndarray, int]):
         self._time = list(self.data.time[index, self._price_rows])
         self._k = 0
         self._pos = 0
+        self._positions = [0] * self.n_steps
         self.cum_pnl = 0.0
         self.cum_fees = 0.0
 
@@ -225,6 +226,7 @@ class TradingEnv(gym.Env[np.ndarray, int]):
             raise RuntimeError("the trading day is over: call `reset()` before `step()`")
         pos = a - 1
         prev = self._pos
+        self._positions[k] = pos
         price = self._mid[k + 1]
         pnl = self._cap * pos * (price - self._mid[k])
         fee = self._fee * abs(pos - prev)
@@ -253,6 +255,35 @@ class TradingEnv(gym.Env[np.ndarray, int]):
             "cost": 0.0,
         }
         return obs, pnl - fee, terminated, truncated, info
+
+    def render(self) -> str | np.ndarray | None:
+        """``ansi``: one line on the day so far; ``rgb_array``: the day's prices, coloured by position."""
+        if self.render_mode == "ansi":
+            k = self._k
+            marks = "".join("S-L"[p + 1] for p in self._positions[:k])
+            return (
+                f"{self.days[self._day]} {str(self._time[k])[11:16]} mid {self._mid[k]:.5f} [{marks:<{self.n_steps}}] "
+                f"P&L {self.cum_pnl:+.2f} fees {self.cum_fees:.2f}"
+            )
+        if self.render_mode == "rgb_array":
+            return self._picture()
+        return None
+
+    def _picture(self, height: int = 120, width: int = 240) -> np.ndarray:
+        img = np.full((height, width, 3), 255, dtype=np.uint8)
+        prices = np.asarray(self._mid)
+        lo, hi = prices.min(), prices.max()
+        span = hi - lo if hi > lo else 1.0
+        xs = np.linspace(0, width - 1, len(prices))
+        colours = {-1: (200, 30, 30), 0: (120, 120, 120), 1: (30, 150, 30)}
+        for i in range(len(prices) - 1):
+            colour = colours[self._positions[i]] if i < self._k else (200, 200, 230)
+            for x in range(int(xs[i]), int(xs[i + 1]) + 1):
+                f = (x - xs[i]) / max(xs[i + 1] - xs[i], 1e-9)
+                p = prices[i] + f * (prices[i + 1] - prices[i])
+                y = int(round((hi - p) / span * (height - 11))) + 5
+                img[y - 1 : y + 2, x] = colour
+        return img
 
     def __repr__(self) -> str:
         return f"TradingEnv(split={self.config.split!r}, days={len(self.days)}, fidelity={self.config.fidelity!r})"

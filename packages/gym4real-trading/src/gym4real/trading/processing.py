@@ -37,7 +37,7 @@ from gym4real.trading.config import SourceSection
 logger = logging.getLogger("gym4real.trading")
 
 #: Bump when the processing changes, so that old cache files are not reused.
-PROCESSING_VERSION = 1
+PROCESSING_VERSION = 2
 _NS_PER_MIN = 60_000_000_000
 HISTDATA_SUBDIR = "trading/histdata"
 HISTDATA_PAGE = "https://www.histdata.com/download-free-forex-historical-data/?/ascii/tick-data-quotes/EURUSD"
