@@ -281,7 +281,7 @@ class TradingEnv(gym.Env[np.ndarray, Any]):
             for x in range(int(xs[i]), int(xs[i + 1]) + 1):
                 f = (x - xs[i]) / max(xs[i + 1] - xs[i], 1e-9)
                 p = prices[i] + f * (prices[i + 1] - prices[i])
-                y = int(round((hi - p) / span * (height - 11))) + 5
+                y = round(float((hi - p) / span * (height - 11))) + 5
                 img[y - 1 : y + 2, x] = colour
         return img
 

@@ -60,16 +60,17 @@ def _open_text(path: Path) -> io.StringIO | Path:
         raise DataFileError(f"`{path}` is not a valid zip file ({exc}); download it again") from exc
 
 
-def _read_fields(path: Path, sep: str, names: list[str], expected: str) -> pd.DataFrame:
+def _read_fields(path: Path, expected: str, sep: str, names: list[str] | None, header: bool = False) -> pd.DataFrame:
+    """All fields as text; a wrong field count, an unreadable or an empty file is a :class:`DataFileError`."""
     try:
-        df = pd.read_csv(_open_text(path), sep=sep, header=None, names=names, dtype=str, engine="c")
+        df = pd.read_csv(_open_text(path), sep=sep, header=0 if header else None, names=names, dtype=str, engine="c")
     except pd.errors.ParserError as exc:
         msg = str(exc).replace("Error tokenizing data. C error: ", "")
-        raise DataFileError(f"malformed file `{path}`: {msg}; expected lines `{expected}`") from exc
+        raise DataFileError(f"malformed file `{path}`: {msg}; expected `{expected}`") from exc
     except (OSError, UnicodeDecodeError, pd.errors.EmptyDataError) as exc:
-        raise DataFileError(f"cannot read `{path}` ({exc}); expected lines `{expected}`") from exc
+        raise DataFileError(f"cannot read `{path}` ({exc}); expected `{expected}`") from exc
     if df.empty:
-        raise DataFileError(f"`{path}` holds no quotes; expected lines `{expected}`")
+        raise DataFileError(f"`{path}` holds no quotes; expected `{expected}`")
     return df
 
 
@@ -122,7 +123,7 @@ def read_histdata_tick(path: str | Path, utc_offset_hours: float = MARKET_UTC_OF
         DataFileError: A line with another number of fields, a bad timestamp or a non-positive price.
     """
     path = Path(path)
-    df = _read_fields(path, ",", ["time", "bid", "ask", "volume"], TICK_FORMAT)
+    df = _read_fields(path, TICK_FORMAT, ",", ["time", "bid", "ask", "volume"])
     if df["ask"].isna().any():
         raise _bad_line(path, df, df["ask"].isna().to_numpy(), TICK_FORMAT)
     time = _times(path, df, "time", "%Y%m%d %H%M%S%f", TICK_FORMAT)
@@ -139,7 +140,7 @@ def read_histdata_m1(path: str | Path, utc_offset_hours: float = MARKET_UTC_OFFS
         DataFileError: A line with another number of fields, a bad timestamp or a non-positive price.
     """
     path = Path(path)
-    df = _read_fields(path, ";", ["time", "open", "high", "low", "close", "volume"], M1_FORMAT)
+    df = _read_fields(path, M1_FORMAT, ";", ["time", "open", "high", "low", "close", "volume"])
     if df["close"].isna().any():
         raise _bad_line(path, df, df["close"].isna().to_numpy(), M1_FORMAT)
     time = _times(path, df, "time", "%Y%m%d %H%M%S", M1_FORMAT)
@@ -170,15 +171,7 @@ def read_csv_quotes(path: str | Path, columns: CsvColumns, utc_offset_hours: flo
     what = f"a CSV with a timestamp column `{columns.timestamp}` and " + (
         f"price column `{columns.price}`" if columns.price is not None else f"columns `{columns.bid}`, `{columns.ask}`"
     )
-    try:
-        df = pd.read_csv(path, sep=columns.separator, header=0 if columns.header else None, dtype=str, engine="c")
-    except pd.errors.ParserError as exc:
-        msg = str(exc).replace("Error tokenizing data. C error: ", "")
-        raise DataFileError(f"malformed file `{path}`: {msg}; expected {what}") from exc
-    except (OSError, UnicodeDecodeError, pd.errors.EmptyDataError) as exc:
-        raise DataFileError(f"cannot read `{path}` ({exc}); expected {what}") from exc
-    if df.empty:
-        raise DataFileError(f"`{path}` holds no rows; expected {what}")
+    df = _read_fields(path, what, columns.separator, None, columns.header)
     first = 2 if columns.header else 1
     tcol = _column(path, df, columns.timestamp, "timestamp")
     time = _times(path, df, tcol, columns.timestamp_format, what, first)
