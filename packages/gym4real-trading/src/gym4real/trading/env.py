@@ -50,7 +50,9 @@ class TradingEnv(gym.Env[np.ndarray, Any]):
     also pays ``fees * |position|`` for the forced close. ``info["reward_components"]``: ``pnl`` and
     ``fees`` (negative). ``info["cost"]`` is 0.0: the reference has no constraint (no drawdown limit).
     ``info`` also holds ``pnl``, ``fees`` (positive), ``position`` (held over the step, -1/0/1),
-    ``mid_price`` and ``timestamp`` (at the end of the step), ``cum_pnl`` and ``cum_fees``.
+    ``mid_price`` and ``timestamp`` at the end of the step, ``cum_pnl`` and ``cum_fees`` (the
+    reference's only key is ``datetime``). ``timestamp`` is the label of the price's bar, i.e. its
+    start (market time, ``numpy.datetime64``); the bar's price is its last quote, as in the reference.
 
     ## Starting State
     Flat at the session's first bar of a day: ``reset(seed=s)`` draws a day of the split with
@@ -61,7 +63,8 @@ class TradingEnv(gym.Env[np.ndarray, Any]):
 
     ## Episode End
     Truncated at the close, after ``(session_bars - 1) // p`` decisions (p = persistence in bars): 119
-    with 1-minute bars over 08:00-18:00 and p = 5, the last one held 17:50-17:55. Never terminated.
+    with 1-minute bars over 08:00-18:00 and p = 5, the last one held 17:50-17:55; 7 with the hourly
+    presets (08:00-16:00). Never terminated.
 
     ## Arguments
     ``gymnasium.make("gym4real/trading-v0", config=None, preset=None, render_mode=None, **overrides)``:
