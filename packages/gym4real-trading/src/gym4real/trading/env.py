@@ -102,6 +102,8 @@ class TradingEnv(gym.Env[np.ndarray, Any]):
     """
 
     metadata: dict[str, Any] = {"render_modes": ["ansi", "rgb_array"], "render_fps": 4}
+    #: Keys of ``info["reward_components"]``, in order (their sum is the reward).
+    reward_component_names = ("pnl", "fees")
 
     def __init__(
         self,
