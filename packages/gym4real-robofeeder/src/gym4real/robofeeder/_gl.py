@@ -71,17 +71,32 @@ def select_backend() -> str:
     current = os.environ.get("MUJOCO_GL", "").strip().lower()
     if current:
         CHOICE.update(backend=current, reason="MUJOCO_GL set by the user")
-    elif "mujoco" in sys.modules:
-        CHOICE.update(backend="", reason="mujoco was imported before gym4real.robofeeder with MUJOCO_GL unset")
-    elif _egl_works():
-        os.environ["MUJOCO_GL"] = "egl"
-        CHOICE.update(backend="egl", reason="EGL device initialised")
-    elif _osmesa_available():
-        os.environ["MUJOCO_GL"] = "osmesa"
-        CHOICE.update(backend="osmesa", reason="no usable EGL device; libOSMesa found")
     else:
-        CHOICE.update(backend="", reason="neither an EGL device nor libOSMesa was found")
+        # `mujoco` imported first with MUJOCO_GL unset has picked GLFW: the renderer then opens the
+        # chosen headless context itself (see `rendering.LazyRenderer`)
+        direct = "mujoco" in sys.modules
+        if _egl_works():
+            CHOICE.update(backend="egl", reason="EGL device initialised")
+        elif _osmesa_available():
+            CHOICE.update(backend="osmesa", reason="no usable EGL device; libOSMesa found")
+        else:
+            CHOICE.update(backend="", reason="neither an EGL device nor libOSMesa was found")
+        if direct and CHOICE["backend"]:
+            CHOICE.update(direct="1", reason=CHOICE["reason"] + "; mujoco was imported first, context opened directly")
+        elif CHOICE["backend"]:
+            os.environ["MUJOCO_GL"] = CHOICE["backend"]
     return CHOICE["backend"]
+
+
+def context_class() -> type | None:
+    """The headless GL context class to force when MuJoCo was imported before the backend was chosen."""
+    if not CHOICE.get("direct"):
+        return None
+    if CHOICE["backend"] == "egl":
+        from mujoco.egl import GLContext
+    else:
+        from mujoco.osmesa import GLContext
+    return GLContext
 
 
 def backend_error(cause: BaseException | None = None) -> str:

@@ -83,6 +83,8 @@ class FixesSection(_Section):
         "`spawn.height` and settle `settle_steps`).")
     settle_until_rest: bool | None = Field(
         None, description="Speed: stop settling once every object is at rest (upstream: fixed step counts).")
+    sleep: bool | None = Field(
+        None, description="Speed: MuJoCo's sleeping of bodies at rest (woken by any contact; upstream: off).")
 
 
 FIX_NAMES: tuple[str, ...] = tuple(FixesSection.model_fields)

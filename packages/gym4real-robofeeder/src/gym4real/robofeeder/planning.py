@@ -167,8 +167,9 @@ class RoboFeederPlanningEnv(RoboFeederBaseEnv):
             raise ValueError(f"action must be an integer in [0, {self.n_crops}], got {action!r}")
         a = int(arr.reshape(-1)[0])
         comps = {"picked": 0.0, "failed": 0.0, "idle": 0.0}
-        info: dict[str, Any] = {"success": False, "feasible": True, "cost": 0.0, "target_world": np.full(3, np.nan),
-                                "theta": float("nan"), "slot": a}
+        info: dict[str, Any] = {"success": False, "feasible": True, "cost": 0.0, "target_world": np.zeros(3),
+                                "target_pixel": np.zeros(2), "theta": 0.0, "agent_action": np.zeros(3, np.float32),
+                                "slot": a}
         terminated = False
         if a == 0:
             comps["idle"] = -float(self.count_graspable())

@@ -117,6 +117,8 @@ class Simulator:
         self.config = config
         self.n = config.n_objects
         self.model = build_model(self.n, config.data_dir)
+        if config.fix("sleep"):
+            self.model.opt.enableflags |= int(mujoco.mjtEnableBit.mjENBL_SLEEP)
         self.data = mujoco.MjData(self.model)
         m = self.model
         self.dt = float(m.opt.timestep)
