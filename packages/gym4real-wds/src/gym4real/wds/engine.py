@@ -491,9 +491,12 @@ class Engine:
         try:
             self.tk.open(self.ph, str(self.path), str(report), "")
         except Exception as exc:
-            self.close()  # closes the report file so that its details can be read
+            ph, self.ph = self.ph, None
+            for step in ("close", "deleteproject"):  # closes the report file so that its details can be read
+                with contextlib.suppress(Exception):
+                    getattr(self.tk, step)(ph)
             detail = _report_errors(report)
-            shutil.rmtree(report.parent, ignore_errors=True)
+            self._drop_tmp()
             msg = f"EPANET cannot read network `{self.path}`: {exc}" + (f" ({detail})" if detail else "")
             raise DataFileError(msg) from None
         self._drop_tmp()  # POSIX: the open report file outlives its unlinked folder
@@ -528,19 +531,24 @@ class Engine:
 
     # hydraulics: thin wrappers turning EPANET's exceptions into EpanetError
 
-    def open_hydraulics(self) -> None:
-        """``EN_openH`` (once per project)."""
-        self.tk.openH(self.ph)
-        self._hyd_open = True
-
     def init_hydraulics(self) -> None:
-        """``EN_initH(0)``: clock to 0, tanks to their initial levels, links to their initial status."""
+        """Start an episode: a fresh hydraulic solver (``closeH``, ``openH``) and ``EN_initH(0)``.
+
+        ``initH`` alone resets the clock, tank levels and link status but keeps solver state of the last
+        episode (the pressure-driven demands EPANET starts its iterations from), which moves results in
+        the sixth digit and breaks same-seed determinism; re-opening the solver costs about 15 µs.
+        """
         try:
+            if self._hyd_open:
+                self.tk.closeH(self.ph)
+                self._hyd_open = False
+            self.tk.openH(self.ph)
+            self._hyd_open = True
             self.tk.initH(self.ph, 0)
         except EpanetError:
             raise
         except Exception as exc:
-            raise EpanetError(f"EPANET initH failed: {exc}") from None
+            raise EpanetError(f"EPANET failed to start the hydraulics: {exc}") from None
 
     def run(self) -> int:
         """``EN_runH``: solve at the current clock time; returns the time (s)."""

@@ -196,7 +196,6 @@ class WDSEnv(gym.Env[np.ndarray, int]):
         for j in net.junction_pos + 1:
             for d in range(1, tk.getnumdemands(ph, int(j)) + 1):
                 tk.setdemandpattern(ph, int(j), d, self._pattern_index)
-        eng.open_hydraulics()
 
         self._demand_mask = np.zeros(net.n_nodes)
         self._demand_mask[net.junction_pos] = 1.0
