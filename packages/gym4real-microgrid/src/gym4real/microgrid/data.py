@@ -1,0 +1,211 @@
+"""The exogenous series of MicrogridEnv: demand profiles, PV generation, market prices, ambient temperature.
+
+Each file is read once per process (memoised on its path, size and modification time) and validated:
+a missing column, a non-numeric, negative or non-finite value, or an irregular time step raises
+:class:`~gym4real.core.errors.DataFileError` naming the file and what was expected.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from gym4real.core.errors import DataFileError
+
+DOMAIN = "microgrid"
+
+
+def data_path(ref: str, data_dir: str | Path | None) -> Path:
+    """Locate a data file: a path ending in ``.csv`` as given, otherwise a registered ``microgrid/<ref>``."""
+    if ref.endswith(".csv"):
+        path = Path(ref).expanduser()
+        if not path.is_file():
+            msg = f"data file `{path}` does not exist"
+            raise DataFileError(msg)
+        return path
+    from gym4real.core.datasets import resolve
+
+    return resolve(f"{DOMAIN}/{ref}", data_dir)
+
+
+def _read(path: Path, columns: list[str], what: str) -> pd.DataFrame:
+    try:
+        frame = pd.read_csv(path)
+    except (OSError, ValueError, pd.errors.ParserError) as exc:
+        msg = f"cannot read {what} file `{path}`: {exc}"
+        raise DataFileError(msg) from exc
+    missing = [c for c in columns if c not in frame.columns]
+    if missing:
+        msg = f"{what} file `{path}` lacks column(s) {missing}: expected {columns}, found {list(frame.columns)}"
+        raise DataFileError(msg)
+    if len(frame) < 2:
+        msg = f"{what} file `{path}` has {len(frame)} row(s); expected a time series of at least two rows"
+        raise DataFileError(msg)
+    return frame
+
+
+def _numeric(frame: pd.DataFrame, column: str, path: Path, what: str, minimum: float | None = 0.0) -> np.ndarray:
+    values = pd.to_numeric(frame[column], errors="coerce").to_numpy(dtype=np.float64)
+    bad = ~np.isfinite(values)
+    if minimum is not None:
+        bad |= values < minimum
+    if bad.any():
+        row = int(np.flatnonzero(bad)[0])
+        limit = "" if minimum is None else f" >= {minimum}"
+        msg = (
+            f"{what} file `{path}`: column `{column}` row {row + 2} holds {frame[column].iloc[row]!r}; "
+            f"expected a finite number{limit}"
+        )
+        raise DataFileError(msg)
+    return values
+
+
+def _check_step(frame: pd.DataFrame, path: Path, what: str, step: float) -> np.ndarray:
+    times = _numeric(frame, "delta_time", path, what, minimum=None)
+    diffs = np.diff(times)
+    if not np.allclose(diffs, step):
+        row = int(np.flatnonzero(~np.isclose(diffs, step))[0])
+        msg = (
+            f"{what} file `{path}`: `delta_time` must advance by {step:g} s per row; rows {row + 2} and "
+            f"{row + 3} are {diffs[row]:g} s apart"
+        )
+        raise DataFileError(msg)
+    return times
+
+
+def _key(path: Path) -> tuple[str, int, int]:
+    st = path.stat()
+    return str(path.resolve()), st.st_size, st.st_mtime_ns
+
+
+@functools.lru_cache(maxsize=16)
+def _demand(key: tuple[str, int, int], step: float) -> tuple[tuple[str, ...], np.ndarray]:
+    path = Path(key[0])
+    frame = _read(path, ["delta_time"], "demand")
+    _check_step(frame, path, "demand", step)
+    labels = tuple(str(c) for c in frame.columns if c not in ("delta_time", "timestamp"))
+    if not labels:
+        msg = f"demand file `{path}` has no profile column besides `delta_time`; expected one column per household"
+        raise DataFileError(msg)
+    table = np.column_stack([_numeric(frame, c, path, "demand") for c in labels])
+    table.flags.writeable = False
+    return labels, table
+
+
+@functools.lru_cache(maxsize=16)
+def _series(key: tuple[str, int, int], what: str, columns: tuple[str, ...], step: float) -> tuple[np.ndarray, ...]:
+    path = Path(key[0])
+    frame = _read(path, [*columns, "delta_time"], what)
+    times = _check_step(frame, path, what, step)
+    out = [_numeric(frame, c, path, what) for c in columns]
+    for a in (*out, times):
+        a.flags.writeable = False
+    return (*out, times)
+
+
+def read_demand(path: Path, step: float = 3600.0) -> tuple[tuple[str, ...], np.ndarray]:
+    """Demand profiles (W): the column labels and an array ``[row, profile]``."""
+    return _demand(_key(path), float(step))
+
+
+def read_generation(path: Path, step: float = 3600.0) -> tuple[np.ndarray, np.ndarray]:
+    """PV generation (W) and ``delta_time`` (s)."""
+    pv, times = _series(_key(path), "generation", ("PV",), float(step))
+    return pv, times
+
+
+def read_market(path: Path, step: float = 3600.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Buy (``ask``) and sell (``bid``) prices (EUR/Wh) and ``delta_time`` (s)."""
+    ask, bid, times = _series(_key(path), "market", ("ask", "bid"), float(step))
+    return ask, bid, times
+
+
+def read_temperature(path: Path, step: float = 86400.0) -> tuple[np.ndarray, np.ndarray]:
+    """Daily ambient temperature (K) and ``delta_time`` (s)."""
+    temp, times = _series(_key(path), "ambient temperature", ("temp_amb",), float(step))
+    if (temp < 150.0).any():
+        msg = f"ambient temperature file `{path}`: `temp_amb` must be in kelvin (found {temp.min():g})"
+        raise DataFileError(msg)
+    return temp, times
+
+
+@dataclass(frozen=True)
+class World:
+    """The validated series of one split, as plain Python lists for fast indexing in the step.
+
+    Attributes:
+        labels: Demand profile labels (column names).
+        demand: Demand array ``[row, profile]`` (W).
+        pv: PV generation per row (W).
+        ask: Buy price per row (EUR/Wh).
+        bid: Sell price per row (EUR/Wh).
+        temp: Ambient temperature per day (K).
+        times: ``delta_time`` of the generation rows (s from the first row).
+        step: Seconds per row of the hourly series.
+        temp_step: Seconds per row of the temperature series.
+        trading_norm: ``max(max PV * max bid, max demand * max ask)`` (the reference's normaliser).
+        clipping_norm: ``max(|max demand - min PV|, |max PV - min demand|)``.
+    """
+
+    labels: tuple[str, ...]
+    demand: np.ndarray
+    pv: list[float]
+    ask: list[float]
+    bid: list[float]
+    temp: list[float]
+    times: list[float]
+    step: float
+    temp_step: float
+    trading_norm: float
+    clipping_norm: float
+
+    @classmethod
+    def load(
+        cls, demand: Path, generation: Path, market: Path, temperature: Path, step: float, temp_step: float
+    ) -> World:
+        """Read and cross-check the four files of a split."""
+        labels, table = read_demand(demand, step)
+        pv, times = read_generation(generation, step)
+        ask, bid, _ = read_market(market, step)
+        temp, _ = read_temperature(temperature, temp_step)
+        if len(ask) != len(pv):
+            msg = (
+                f"market file `{market}` has {len(ask)} rows but generation file `{generation}` has {len(pv)}; "
+                "the hourly series must cover the same hours"
+            )
+            raise DataFileError(msg)
+        if len(temp) * temp_step < len(pv) * step:
+            msg = (
+                f"ambient temperature file `{temperature}` covers {len(temp)} days, fewer than the "
+                f"{len(pv) * step / temp_step:g} days of `{generation}`"
+            )
+            raise DataFileError(msg)
+        max_demand, min_demand = float(table.max()), float(table.min())
+        return cls(
+            labels=labels,
+            demand=table,
+            pv=pv.tolist(),
+            ask=ask.tolist(),
+            bid=bid.tolist(),
+            temp=temp.tolist(),
+            times=times.tolist(),
+            step=step,
+            temp_step=temp_step,
+            trading_norm=max(float(pv.max()) * float(bid.max()), max_demand * float(ask.max())),
+            clipping_norm=max(abs(max_demand - float(pv.min())), abs(float(pv.max()) - min_demand)),
+        )
+
+    @functools.cached_property
+    def _profiles(self) -> dict[str, list[float]]:
+        return {}
+
+    def profile(self, label: str) -> list[float]:
+        """The demand profile ``label`` as a list (W per row), memoised."""
+        cache = self._profiles
+        if label not in cache:
+            cache[label] = self.demand[:, self.labels.index(label)].tolist()
+        return cache[label]

@@ -1,0 +1,436 @@
+"""MicrogridEnv: a household with PV, a battery (digital twin) and the day-ahead electricity market."""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from gym4real.core.errors import DataFileError
+from gym4real.microgrid.battery import BatteryParams, BatteryTwin, TwinOptions, load_battery
+from gym4real.microgrid.config import MicrogridConfig
+from gym4real.microgrid.data import World, data_path
+
+SECONDS_PER_DAY = 86400.0
+SECONDS_PER_YEAR = 86400.0 * 365.25
+TWO_PI = 2.0 * math.pi
+
+#: Observation features in order (``soh`` inserted after ``demand`` when observed) and their bounds.
+FEATURES: tuple[tuple[str, float, float], ...] = (
+    ("temperature", 250.0, 400.0),
+    ("soc", 0.0, 1.0),
+    ("demand", 0.0, math.inf),
+    ("soh", 0.0, 1.0),
+    ("generation", 0.0, math.inf),
+    ("ask", 0.0, math.inf),
+    ("bid", 0.0, math.inf),
+    ("sin_day_of_year", -1.0, 1.0),
+    ("cos_day_of_year", -1.0, 1.0),
+    ("sin_seconds_of_day", -1.0, 1.0),
+    ("cos_seconds_of_day", -1.0, 1.0),
+)
+
+TWIN_FIXES = (
+    "celsius_lookup",
+    "capacity_fade",
+    "power_limits",
+    "consistent_current",
+    "calendar_time",
+    "standard_rainflow",
+    "thermal_core_state",
+)
+
+
+@functools.lru_cache(maxsize=8)
+def _world(paths: tuple[Path, Path, Path, Path], step: float, temp_step: float) -> World:
+    return World.load(*paths, step=step, temp_step=temp_step)
+
+
+@functools.lru_cache(maxsize=8)
+def _battery(data_dir: str | None, files: tuple[str | None, ...]) -> BatteryParams:
+    pack, electrical, thermal, aging, tables_dir = files
+    return load_battery(data_dir, pack=pack, electrical=electrical, thermal=thermal, aging=aging, tables_dir=tables_dir)
+
+
+class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
+    """Home battery management over real data (Gym4ReaL ``MicroGridEnv``).
+
+    ## Description
+    A household with a 3 kW PV plant, an hourly electricity demand and a ~21 kWh lithium-ion pack
+    (60 Ah, 288-398.4 V) simulated by a digital twin (:mod:`gym4real.microgrid.battery`: Thevenin circuit
+    with lookup tables, lumped thermal model, Bolun aging with rainflow cycle counting). Every hour the
+    agent chooses which fraction of the net power ``PV - demand`` goes to the battery (surplus) or comes
+    from it (deficit); the rest is sold at the GME ``bid`` price or bought at the ``ask`` price. Data:
+    demand profiles (W), PV (W), prices (EUR/Wh) hourly, ambient temperature (K) daily; train 2015-2018
+    with 370 households (preset ``train``), test 2019 with 28 households 370..397 (presets ``default``,
+    ``test``).
+
+    ## Action Space
+    ``Box(0, 1, (1,), float32)``: the fraction ``a`` of the net power routed to (or taken from) the
+    battery. The request ``a * (PV - demand)`` is clipped to what the battery can take or give in the
+    hour (SoC window, and the pack's current and power bounds); the clipped part is traded instead and
+    penalised. NaN or values outside ``[0, 1]`` (beyond 1e-6) raise ``ValueError``.
+
+    ## Observation Space
+    ``Box(float32)`` of 10 values (11 with ``observe_soh``), in this order:
+
+    | feature | bounds | meaning |
+    |---|---|---|
+    | ``temperature`` | [250, 400] K | battery temperature |
+    | ``soc`` | [0, 1] | state of charge |
+    | ``demand`` | [0, inf) W | demand of the hour just elapsed (estimate of the next) |
+    | (``soh``) | [0, 1] | state of health, only with ``observe_soh`` |
+    | ``generation`` | [0, inf) W | PV of the hour just elapsed (estimate of the next) |
+    | ``ask``, ``bid`` | [0, inf) EUR/Wh | buy and sell prices of the upcoming hour (day-ahead) |
+    | ``sin/cos_day_of_year`` | [-1, 1] | angle ``2 pi t / 365.25 d`` |
+    | ``sin/cos_seconds_of_day`` | [-1, 1] | angle ``2 pi t / 1 d`` |
+
+    ## Rewards
+    ``reward = w_trad * trading + w_deg * degradation + w_clip * clipping`` with
+
+    * trading (EUR): ``bid * sold - ask * bought`` over the hour;
+    * degradation (EUR): ``-(SoH drop) / (1 - eol_soh) * replacement_cost`` (3000 EUR);
+    * clipping (Wh): ``-|requested - applied battery energy|``;
+
+    weights from ``reward`` (1 / 1 / 0.1); with ``reward.normalize`` trading is divided by
+    ``max(max PV * max bid, max demand * max ask)`` and clipping by the largest net power of the data.
+    ``info["reward_components"]`` holds the three weighted terms (they sum to the reward) and
+    ``info["pure_components"]`` the same unweighted and unnormalised. ``info["cost"]`` is the SoC-window
+    violation: how far beyond ``[soc_min, soc_max]`` the requested energy would have driven the SoC.
+    The paper's objective is ``trading + degradation`` in EUR (the ``test`` preset's return).
+
+    ## Starting State
+    The profile is ``options["profile"]`` (or the reference's ``options["eval_profile"]``), else drawn
+    with the reset seed (``profile_order: random``) or taken in file order (``sequential``; the ``test``
+    preset). The episode starts at the second data hour (or a random hour with ``random_start``,
+    or ``options["start"]``), the battery at SoC 0.2, SoH 1 and the ambient temperature of the day (or
+    drawn within the pack's bounds with ``random_battery_init``).
+
+    ## Episode End
+    Termination when the state of health reaches ``battery.eol_soh`` (0.6, end of life); truncation when
+    the data is exhausted (the first data hour is only observed: 8759 hourly steps on the 2019 data) or
+    after ``max_steps`` data steps. With ``decision_interval = k`` each step holds the action for ``k``
+    data steps (the reward sums them), so an episode has ``ceil(steps / k)`` decisions.
+
+    ## Arguments
+    ``gymnasium.make("gym4real/microgrid-v0", config=None, preset=None, render_mode=None, **overrides)``:
+    ``config`` is a :class:`MicrogridConfig`, a mapping or a YAML path; ``preset`` is ``default``,
+    ``train`` or ``test``; overrides are config fields (``fidelity="upstream"``, ``decision_interval=4``,
+    ``reward={"normalize": False}``, ``fixes={"capacity_fade": False}``, ...).
+
+    ## Corrected mode and ``fidelity="upstream"``
+    The default mode fixes the reference's defects (numbers refer to the spec); each fix is a switch in
+    ``fixes`` (null follows ``fidelity``), and ``fidelity="upstream"`` turns them all off:
+
+    1. ``celsius_lookup``: the ECM tables are in °C; corrected converts the kelvin temperature and
+       interpolates bilinearly; upstream takes the nearest grid point of the raw kelvin value (always
+       the 40 °C column at the nearest 5 % SoC).
+    2. ``capacity_fade``: coulomb counting and the SoC limits use ``SoH * 60 Ah``; upstream always 60 Ah.
+    3. ``power_limits``: the pack's current (-180..60 A) and power bounds limit the battery too;
+       upstream only the SoC window does.
+    4. ``consistent_current``: the current solves ``V(I) I = P`` with the new terminal voltage (the
+       battery takes exactly the traded-off energy, energy is conserved) from a rest voltage equal to
+       the OCV; upstream ``I = P / V_previous`` from 310.8 V.
+    5. ``data_alignment``: every series indexed by its own length and the ambient temperature of the
+       simulated hour's day; upstream PV, prices and temperature wrap at ``len - 1`` (the last row is
+       never used: the final step trades at 1 January's prices) and the temperature is the next hour's.
+    6. ``calendar_time``: calendar aging integrated over each step; upstream uses the previous step's
+       elapsed time (-1 s at the first step) with running means of SoC and temperature.
+    7. ``standard_rainflow``: streaming ASTM rainflow from the initial SoC keeping the residue's half
+       cycles, SoH never increases, and the degradation cost is charged on the SoH drop; upstream's
+       Dropflow drops half cycles (SoH can rise) and charges ``|ΔSoH|``.
+    8. ``thermal_core_state``: the core temperature is the thermal state (observed; the surface is in
+       ``info["battery"]``) and dV/dT is taken at the new SoC; upstream feeds the surface temperature
+       back as the core's and uses the previous SoC.
+    9. Seeding: the profile, the start and a random initial battery come from ``reset(seed=)``;
+       upstream draws them from a generator seeded once with ``upstream_seed`` (42) at construction,
+       as the reference's global NumPy seed (``reset(seed)`` has no effect), folds the start time to the
+       first year (12) and ignores ``profile_order``.
+
+    Both modes: fresh ``info`` dicts every step and no mutation of the data (10); generation data is
+    required and the episode length is explicit (``max_steps``) (11); a missing or malformed data file
+    raises ``DataFileError`` naming the file (13); the first data row is only observed (14); table
+    lookups are precomputed Python arithmetic, no SciPy in the step (15).
+
+    ## Version History
+    * v0: Gym4ReaL v1.0 dynamics, corrected by default.
+    """
+
+    metadata = {"render_modes": [], "render_fps": 1}
+
+    def __init__(
+        self,
+        config: MicrogridConfig | Mapping[str, Any] | str | Path | None = None,
+        *,
+        preset: str | None = None,
+        render_mode: str | None = None,
+        **overrides: Any,
+    ) -> None:
+        self.config = cfg = MicrogridConfig.build(config, preset, **overrides)
+        if render_mode is not None:
+            msg = f"`render_mode` must be None (MicrogridEnv does not render), not {render_mode!r}"
+            raise ValueError(msg)
+        self.render_mode = render_mode
+        self._upstream = cfg.fidelity == "upstream"
+        self._aligned = cfg.fix("data_alignment")
+        self._soh_cost = cfg.fix("standard_rainflow")
+        self.world = self._load_world()
+        b = cfg.battery
+        files = (b.pack, b.electrical, b.thermal, b.aging, b.tables_dir)
+        self.battery_params = _battery(cfg.data_dir, files)
+        options = TwinOptions.for_fidelity(cfg.fidelity, **{k: getattr(cfg.fixes, k) for k in TWIN_FIXES})
+        self.battery = BatteryTwin(self.battery_params, options, eol_soh=b.eol_soh)
+
+        w = self.world
+        labels = w.labels
+        if cfg.profiles is not None:
+            unknown = [p for p in cfg.profiles if p not in labels]
+            if unknown:
+                msg = f"`profiles` {unknown} are not columns of the demand file; available: {list(labels)}"
+                raise DataFileError(msg)
+            labels = tuple(cfg.profiles)
+        self.profiles = labels
+        self._n_rows = len(w.pv)
+        self._n_demand = len(w.demand)
+        self._n_temp = len(w.temp)
+        self._hour_mod = self._n_rows if self._aligned else self._n_rows - 1
+        self._day_mod = self._n_temp if self._aligned else self._n_temp - 1
+        self._step_s = w.step
+        self._hours_per_step = w.step / 3600.0
+        self._trading_scale = 1.0 / w.trading_norm if cfg.reward.normalize else 1.0
+        self._clipping_scale = 1.0 / w.clipping_norm if cfg.reward.normalize else 1.0
+        self._deg_per_soh = b.replacement_cost / (1.0 - b.eol_soh)
+        self._weights = (cfg.reward.trading, cfg.reward.degradation, cfg.reward.clipping)
+
+        features = [f for f in FEATURES if f[0] != "soh" or cfg.observe_soh]
+        self.feature_names = tuple(f[0] for f in features)
+        self.observation_space = spaces.Box(
+            low=np.array([f[1] for f in features], dtype=np.float32),
+            high=np.array([f[2] for f in features], dtype=np.float32),
+            dtype=np.float32,
+        )
+        self.action_space = spaces.Box(low=0.0, high=1.0, shape=(1,), dtype=np.float32)
+        self._legacy_rng = np.random.RandomState(cfg.upstream_seed)
+        self._cursor = 0
+        self._profile = labels[0]
+        self._demand = w.profile(self._profile)
+        self._start(1, self.battery_params.init_soc, self.battery_params.init_soh, None)
+
+    def _load_world(self) -> World:
+        cfg = self.config
+        d = cfg.data
+        paths = []
+        for what in ("demand", "generation", "market", "temp_amb"):
+            ref = getattr(d, what)
+            try:
+                paths.append(data_path(ref, cfg.data_dir))
+            except DataFileError as exc:
+                if ref == "demand/train":
+                    msg = (
+                        f"{exc}\nThe 370 training households (`profiles_train.csv`) are published upstream but "
+                        "were absent from the reference snapshot. Place the file in a data folder "
+                        "(`<GYM4REAL_DATA_DIR>/microgrid/demand/profiles_train.csv`) or pass "
+                        '`data={"demand": "<path>.csv"}`; preset "default" or "test" runs on the 2019 data.'
+                    )
+                    raise DataFileError(msg) from exc
+                raise
+        return _world(tuple(paths), d.timestep, d.temp_timestep)  # type: ignore[arg-type]
+
+    # -- episode start -------------------------------------------------------------------------------
+
+    def _start(self, row: int, soc: float, soh: float, temperature: float | None) -> None:
+        """Place the episode at data row ``row`` (the upcoming hour) with a battery at rest."""
+        cfg = self.config
+        if self._upstream:  # the reference folds the start time into the first year
+            row = int(row * self._step_s % SECONDS_PER_YEAR // self._step_s)
+        self._row = row
+        self._iterations = 0
+        if temperature is None:
+            temperature = self.world.temp[self._day(row * self._step_s)]
+        if self._upstream:
+            self._limit = self._n_rows - 1 if cfg.max_steps is None else cfg.max_steps
+        else:
+            self._limit = min(self._n_rows - row, cfg.max_steps or self._n_rows)
+        self.battery.reset(soc=soc, temperature=temperature, soh=soh)
+
+    def _day(self, seconds: float) -> int:
+        """Row of the daily temperature series at a time (the reference wraps at ``len - 1`` days)."""
+        return int(seconds // self.world.temp_step) % self._day_mod
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict]:
+        """Start an episode: choose the profile, the start hour and the initial battery state."""
+        super().reset(seed=seed)
+        options = dict(options or {})
+        cfg = self.config
+        p = self.battery_params
+        labels = self.profiles
+        profile = options.get("profile", options.get("eval_profile"))
+        rng = self._legacy_rng if self._upstream else None
+        if profile is not None:
+            profile = str(profile)
+            if profile not in self.world.labels:
+                msg = f"`options['profile']` {profile!r} is not a demand column; available: {list(labels)}"
+                raise ValueError(msg)
+        elif rng is not None:
+            profile = str(rng.choice(list(labels)))
+        elif cfg.profile_order == "sequential":
+            if seed is not None:
+                self._cursor = seed % len(labels)
+            profile = labels[self._cursor]
+            self._cursor = (self._cursor + 1) % len(labels)
+        else:
+            profile = labels[int(self.np_random.integers(len(labels)))]
+        row = 1
+        if "start" in options:
+            row = int(options["start"])
+            if not 1 <= row < self._n_rows:
+                msg = f"`options['start']` must be a data row in [1, {self._n_rows - 1}], not {row}"
+                raise ValueError(msg)
+        elif cfg.random_start:
+            if rng is not None:
+                row = int(rng.randint(1, self._n_rows - 1))
+            else:
+                row = int(self.np_random.integers(1, self._n_rows - 1))
+        soc, soh, temperature = p.init_soc, p.init_soh, None
+        if cfg.random_battery_init:
+            if rng is not None:  # the reference draws every bound, in the pack's order
+                draws = {k: float(rng.uniform(lo, hi)) for k, (lo, hi) in p.bounds().items()}
+            else:
+                draws = {k: float(self.np_random.uniform(*p.bounds()[k])) for k in ("soc", "soh", "temperature")}
+            soc, soh, temperature = draws["soc"], draws["soh"], draws["temperature"]
+        self._profile = profile
+        self._demand = self.world.profile(profile)
+        self._start(row, soc, soh, temperature)
+        if rng is not None and cfg.random_battery_init:
+            self.battery.voltage = draws["voltage"]
+        zeros = {"trading": 0.0, "degradation": 0.0, "clipping": 0.0}
+        info = {
+            "profile": profile,
+            "start": row,
+            "soc": self.battery.soc,
+            "soh": self.battery.soh,
+            "reward_components": zeros,
+            "pure_components": dict(zeros),
+            "cost": 0.0,
+        }
+        return self._obs(), info
+
+    # -- observation ---------------------------------------------------------------------------------
+
+    def _obs(self) -> np.ndarray:
+        w, bat = self.world, self.battery
+        row = self._row
+        now = row % self._hour_mod
+        prev = (row - 1) % self._hour_mod
+        temp = bat.temperature
+        temp = 250.0 if temp < 250.0 else 400.0 if temp > 400.0 else temp
+        tau = row * self._step_s
+        year = TWO_PI * tau / SECONDS_PER_YEAR
+        day = TWO_PI * tau / SECONDS_PER_DAY
+        values = [temp, bat.soc, self._demand[(row - 1) % self._n_demand], w.pv[prev], w.ask[now], w.bid[now]]
+        if self.config.observe_soh:
+            values.insert(3, min(max(bat.soh, 0.0), 1.0))
+        values += [math.sin(year), math.cos(year), math.sin(day), math.cos(day)]
+        return np.array(values, dtype=np.float32)
+
+    # -- dynamics ------------------------------------------------------------------------------------
+
+    def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """Route the fraction ``action`` of the net power to the battery for ``decision_interval`` hours."""
+        if type(action) is np.ndarray and action.shape == (1,):
+            a = float(action[0])
+        else:
+            flat = np.asarray(action, dtype=np.float64).reshape(-1)
+            if flat.shape != (1,):
+                msg = f"action must hold one value in [0, 1], got shape {np.shape(action)}"
+                raise ValueError(msg)
+            a = float(flat[0])
+        if not 0.0 <= a <= 1.0:
+            if not -1e-6 <= a <= 1.0 + 1e-6:  # NaN fails both tests
+                msg = f"action must be in [0, 1] (the fraction of net power sent to the battery), got {a!r}"
+                raise ValueError(msg)
+            a = 0.0 if a < 0.0 else 1.0
+
+        w, bat = self.world, self.battery
+        dt = self._step_s
+        hours = self._hours_per_step
+        demand_series, pv, ask, bid = self._demand, w.pv, w.ask, w.bid
+        temp_series, temp_step = w.temp, w.temp_step
+        hour_mod, day_mod, n_demand = self._hour_mod, self._day_mod, self._n_demand
+        shift = 0 if self._aligned else 1
+        trading = degradation = clipping = cost = 0.0
+        e_demand = e_pv = e_in = e_out = e_sold = e_bought = 0.0
+        terminated = truncated = False
+        for _ in range(self.config.decision_interval):
+            r = self._row
+            now = r % hour_mod
+            demand = demand_series[r % n_demand]
+            # the ambient temperature of the simulated hour (the reference: of the next hour)
+            t_amb = temp_series[int((r + shift) * dt // temp_step) % day_mod]
+            gen = pv[now]
+            margin = gen - demand
+            request = margin * a
+            soh0 = bat.soh
+            applied = bat.step(request, dt, t_amb)
+            traded = margin - applied
+            if traded < 0.0:
+                trading += traded * ask[now] * hours
+                e_bought -= traded * hours
+            else:
+                trading += traded * bid[now] * hours
+                e_sold += traded * hours
+            if self._soh_cost:
+                degradation -= (soh0 - bat.soh) * self._deg_per_soh
+            else:
+                degradation -= abs(soh0 - bat.soh) * self._deg_per_soh
+            clipping -= abs(request - applied) * hours
+            cost += bat.soc_violation
+            e_demand += demand * hours
+            e_pv += gen * hours
+            if applied > 0.0:
+                e_in += applied * hours
+            else:
+                e_out -= applied * hours
+            self._row += 1
+            self._iterations += 1
+            terminated = bat.soh <= bat.eol_soh
+            truncated = self._iterations >= self._limit
+            if terminated or truncated:
+                break
+
+        wt, wd, wc = self._weights
+        comps = {
+            "trading": wt * trading * self._trading_scale,
+            "degradation": wd * degradation,
+            "clipping": wc * clipping * self._clipping_scale,
+        }
+        info = {
+            "profile": self._profile,
+            "soc": bat.soc,
+            "soh": bat.soh,
+            "temperature": bat.temperature,
+            "reward_components": comps,
+            "pure_components": {"trading": trading, "degradation": degradation, "clipping": clipping},
+            "cost": cost,
+            "energy": {
+                "demand": e_demand,
+                "pv": e_pv,
+                "to_battery": e_in,
+                "from_battery": e_out,
+                "sold": e_sold,
+                "bought": e_bought,
+            },
+            "battery": bat.snapshot(),
+        }
+        reward = comps["trading"] + comps["degradation"] + comps["clipping"]
+        return self._obs(), reward, terminated, truncated and not terminated, info
+
+    def render(self) -> None:
+        """MicrogridEnv has no rendering."""
+        return None
