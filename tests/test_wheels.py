@@ -51,7 +51,15 @@ def test_domain_wheels_hold_only_their_folder(wheels: dict[str, Path]) -> None:
         if dist == "gym4real-core":
             assert "gym4real/__init__.py" in files
             assert all(
-                f.startswith(("gym4real/core/", "gym4real/wrappers/", "gym4real/__init__.py", "gym4real/py.typed"))
+                f.startswith(
+                    (
+                        "gym4real/core/",
+                        "gym4real/wrappers/",
+                        "gym4real/integrations/",
+                        "gym4real/__init__.py",
+                        "gym4real/py.typed",
+                    )
+                )
                 for f in files
             )
         else:

@@ -113,6 +113,9 @@ class BenchmarkResult:
         }
         written[2].write_text(json.dumps(record, indent=1))
         written += plots.save_figures(self, out)
+        spec = registry().benchmarks.get(self.env_id)
+        if spec is not None and spec.figures:
+            written += list(load_object(spec.figures)(self, out))
         return written
 
 

@@ -69,6 +69,9 @@ def _cmd_data(args: argparse.Namespace) -> None:
     from gym4real.core import datasets
     from gym4real.core.registry import registry
 
+    if args.years:
+        _fetch_years(args)
+        return
     specs = [
         s
         for n, s in sorted(registry().datasets.items())
@@ -90,6 +93,21 @@ def _cmd_data(args: argparse.Namespace) -> None:
             print(f"ok   {spec.name:40s} {path}")
     if failed:
         raise Gym4RealError(f"{len(failed)} of {len(specs)} data files unavailable: {', '.join(failed)}")
+
+
+def _fetch_years(args: argparse.Namespace) -> None:
+    """Data a domain downloads by year from its own source (trading: HistData), via ``gym4real.<d>.fetch``."""
+    import importlib
+
+    if args.action != "fetch" or not args.names:
+        raise Gym4RealError("`--years` goes with `gym4real data fetch DOMAIN --years Y [Y ...]`")
+    for domain in args.names:
+        try:
+            module = importlib.import_module(f"gym4real.{domain}.fetch")
+        except ModuleNotFoundError as exc:
+            raise Gym4RealError(f"domain `{domain}` has no by-year download (no `gym4real.{domain}.fetch`)") from exc
+        for path in module.fetch(args.years):
+            print(f"ok   {path}")
 
 
 def _cmd_train(args: argparse.Namespace) -> None:
@@ -134,6 +152,7 @@ def _parser() -> argparse.ArgumentParser:
     data = sub.add_parser("data", help="list, fetch or verify the data files")
     data.add_argument("action", choices=["list", "fetch", "verify"])
     data.add_argument("names", nargs="*", help="domains or dataset names (default: all)")
+    data.add_argument("--years", nargs="+", type=int, help="years to download from a domain's own source (trading)")
     data.set_defaults(run=_cmd_data)
 
     train = sub.add_parser("train", help="train an RL agent with a registered preset")

@@ -129,6 +129,8 @@ class BenchmarkSpec:
         policies: The baselines the default benchmark compares.
         objective: Reward components whose sum is the paper's objective, reported beside the return.
         final_info: ``info`` keys whose value at the end of an episode is reported (final SoH, ...).
+        figures: ``"module:function"``; ``function(result, out)`` draws the domain's own figures of the
+            paper into the folder ``out`` and returns their paths (beside the two common figures).
         description: One line on the protocol.
     """
 
@@ -138,10 +140,15 @@ class BenchmarkSpec:
     policies: tuple[str, ...] = ()
     objective: tuple[str, ...] = ()
     final_info: tuple[str, ...] = ()
+    figures: str | None = None
     description: str = ""
 
     def __post_init__(self) -> None:
         _check(bool(_ENTRY.match(self.protocol)), f"protocol `{self.protocol}` is not `module:function`")
+        _check(
+            self.figures is None or bool(_ENTRY.match(self.figures)),
+            f"figures `{self.figures}` is not `module:function`",
+        )
 
 
 @dataclass(frozen=True)

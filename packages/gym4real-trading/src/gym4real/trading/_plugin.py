@@ -87,6 +87,7 @@ def gym4real_register_benchmarks() -> list[BenchmarkSpec | TrainingSpec]:
             policies=("buy_and_hold", "sell_and_hold", "flat", "random"),
             objective=("pnl", "fees"),
             final_info=("cum_pnl", "cum_fees"),
+            figures="gym4real.trading.evaluation:pnl_figures",
             description="every trading day of the test split, in order (daily P&L in USD)",
         ),
         *(

@@ -1,23 +1,19 @@
 """The paper's evaluation of TradingEnv: every trading day of a split once, in order.
 
 ``gym4real bench gym4real/trading-v0`` runs :func:`test_episodes` and writes the core's table and
-figures (its boxplot is the daily P&L); :func:`pnl_figures` adds the paper's two figures over the
-days: the cumulative P&L (% of capital) and the boxplot of the daily P&L (%). Both at once::
-
-    python -m gym4real.trading.evaluation --preset test --out results/trading
+figures (its boxplot is the daily P&L); :func:`pnl_figures`, registered as the protocol's figures,
+adds the paper's two figures over the days: the cumulative P&L (% of capital) and the boxplot of the
+daily P&L (%).
 """
 
 from __future__ import annotations
 
-import argparse
-import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from gym4real.core.errors import Gym4RealError
 from gym4real.trading import features
 from gym4real.trading.config import TradingConfig
 
@@ -81,32 +77,3 @@ def pnl_figures(result: BenchmarkResult, out: str | Path, capital: float = 100_0
     fig.savefig(paths[1], dpi=120)
     plt.close(fig)
     return paths
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """Benchmark the baselines (or given policies) on every day of a split; write table and figures."""
-    from gym4real.core.benchmark import benchmark
-
-    p = argparse.ArgumentParser(prog="python -m gym4real.trading.evaluation", description=main.__doc__)
-    p.add_argument("--preset", default="test", help="env preset (default: test)")
-    p.add_argument("--policies", default=None, help="comma-separated baselines or kind:path models")
-    p.add_argument("--fidelity", choices=["corrected", "upstream"], default=None)
-    p.add_argument("--out", default="results/gym4real_trading-v0")
-    args = p.parse_args(argv)
-    kwargs: dict[str, Any] = {"preset": args.preset}
-    if args.fidelity:
-        kwargs["fidelity"] = args.fidelity
-    try:
-        policies = args.policies.split(",") if args.policies else None
-        result = benchmark(ENV_ID, policies, episodes="test", env_kwargs=kwargs, out=args.out)
-        pnl_figures(result, args.out, _config(kwargs).capital)
-    except Gym4RealError as exc:
-        print(f"gym4real: error: {' '.join(str(exc).split())}", file=sys.stderr)
-        return 2
-    print(result.table())
-    print(f"results and figures written to {args.out}/")
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

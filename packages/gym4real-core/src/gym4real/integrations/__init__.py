@@ -1,0 +1,1 @@
+"""Integrations of Gym4ReaL with distributed RL engines (each an optional extra of core)."""
