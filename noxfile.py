@@ -43,11 +43,17 @@ def _editable(dist: Path) -> str:
 
 
 @nox.session
-def tests(session: nox.Session) -> None:
-    """All packages editable in one venv; every suite (root and per package)."""
+@nox.parametrize("gymnasium", ["latest", "1.2.2"])
+def tests(session: nox.Session, gymnasium: str) -> None:
+    """All packages editable in one venv; every suite, on the latest gymnasium and on 1.2.2.
+
+    The 1.2.2 run installs Ray RLlib (which pins it) and so also runs the RLlib test.
+    """
     session.install(TORCH)
     session.install(*(_editable(d) for d in PACKAGES))
     session.install(*sorted({dep for d in PACKAGES for dep in _test_deps(d)}), "pytest-xdist>=3", "hatchling>=1.26")
+    if gymnasium != "latest":
+        session.install(f"gymnasium=={gymnasium}", f"-e{CORE}[ray]")
     suites = ["tests", *(str(d / "tests") for d in PACKAGES)]
     session.run("pytest", "-n", "2", "--dist", "loadfile", *suites, *session.posargs, env=ENV)
 
@@ -62,7 +68,7 @@ def _tests_of(dist: Path) -> None:
             session.error("a gym4real distribution came from an index instead of this checkout")
         session.run("pytest", str(dist / "tests"), *session.posargs, env=ENV)
 
-    session_fn.__doc__ = f"{dist.name} with core only: its declared dependencies must be enough for its suite."
+    session_fn.__doc__ = f"{dist.name} in a venv of its own with core: its declared dependencies suffice."
     nox.session(name=f"tests-{dist.name.removeprefix('gym4real-')}")(session_fn)
 
 
