@@ -51,7 +51,12 @@ def tests(session: nox.Session, gymnasium: str) -> None:
     """
     session.install(TORCH)
     session.install(*(_editable(d) for d in PACKAGES))
-    session.install(*sorted({dep for d in PACKAGES for dep in _test_deps(d)}), "pytest-xdist>=3", "hatchling>=1.26")
+    session.install(
+        *sorted({dep for d in PACKAGES for dep in _test_deps(d)}),
+        "pytest-xdist>=3",
+        "hatchling>=1.26",
+        "mkdocs-material>=9.5",
+    )
     if gymnasium != "latest":
         session.install(f"gymnasium=={gymnasium}", f"-e{CORE}[ray]")
     suites = ["tests", *(str(d / "tests") for d in PACKAGES)]
@@ -82,6 +87,15 @@ def bench(session: nox.Session) -> None:
     session.install(*(_editable(d).removesuffix("[rl,mo,offline]") for d in PACKAGES))
     args = session.posargs or ["gym4real/elevator-v0"]
     session.run("gym4real", "bench", *args, env={k: v for k, v in ENV.items() if k != "GYM4REAL_OFFLINE"})
+
+
+@nox.session
+def docs(session: nox.Session) -> None:
+    """The docs site: one generated page per env (with `results/<env>` bench figures when present)."""
+    session.install(*(_editable(d).removesuffix("[rl,mo,offline]") for d in PACKAGES), "mkdocs-material>=9.5")
+    figures = ["--figures", "results"] if (ROOT / "results").is_dir() else []
+    session.run("python", "docs/gen_pages.py", *figures, env=ENV)
+    session.run("mkdocs", "build", "--strict", env=ENV)
 
 
 @nox.session
