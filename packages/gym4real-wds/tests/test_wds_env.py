@@ -357,3 +357,8 @@ def test_render_ansi() -> None:
     text = e.render()
     assert "P78=on" in text and "P79=off" in text and "T41=" in text
     e.close()
+    e = WDSEnv(render_mode="rgb_array")  # SB3's make_vec_env asks for it
+    e.reset(seed=0)
+    frame = e.render()
+    assert frame.dtype == np.uint8 and frame.ndim == 3 and frame.shape[2] == 3
+    e.close()

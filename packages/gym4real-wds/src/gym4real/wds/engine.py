@@ -9,8 +9,10 @@ the environment calls):
   it pulls matplotlib and writes temporary copies of the network beside the input file).
 
 Both run the same engine build, so results are identical. :class:`Engine` owns one project: it opens
-the network with its report file in a private temporary folder (removed as soon as the file is open on
-POSIX, else at :meth:`Engine.close`), and releases everything at ``close()``.
+the network once, with its report file in a private temporary folder (removed as soon as the file is
+open on POSIX, else at :meth:`Engine.close`), starts a fresh hydraulic solver per episode, and releases
+everything at ``close()``. EPANET errors become :class:`EpanetError` (or ``DataFileError`` for a network
+EPANET cannot read) carrying EPANET's message.
 """
 
 from __future__ import annotations
@@ -88,99 +90,58 @@ class _OwaBackend:
         return t
 
 
+# ctypes argument types of the EPANET API (a project handle is a void pointer)
+_P, _I, _D, _S = ctypes.c_void_p, ctypes.c_int, ctypes.c_double, ctypes.c_char_p
+_pP, _pI, _pD, _pL = (ctypes.POINTER(t) for t in (ctypes.c_void_p, ctypes.c_int, ctypes.c_double, ctypes.c_long))
+
+
 class _CtypesToolkit:
     """The owa-epanet functions the env calls, implemented on a raw EPANET 2.3 library with ctypes."""
 
     _SIGNATURES: dict[str, tuple[Any, ...]] = {
-        "EN_createproject": (ctypes.POINTER(ctypes.c_void_p),),
-        "EN_deleteproject": (ctypes.c_void_p,),
-        "EN_open": (ctypes.c_void_p, ctypes.c_char_p, ctypes.c_char_p, ctypes.c_char_p),
-        "EN_close": (ctypes.c_void_p,),
-        "EN_getcount": (ctypes.c_void_p, ctypes.c_int, ctypes.POINTER(ctypes.c_int)),
-        "EN_getnodeid": (ctypes.c_void_p, ctypes.c_int, ctypes.c_char_p),
-        "EN_getnodetype": (ctypes.c_void_p, ctypes.c_int, ctypes.POINTER(ctypes.c_int)),
-        "EN_getlinkid": (ctypes.c_void_p, ctypes.c_int, ctypes.c_char_p),
-        "EN_getlinktype": (ctypes.c_void_p, ctypes.c_int, ctypes.POINTER(ctypes.c_int)),
-        "EN_getlinknodes": (
-            ctypes.c_void_p,
-            ctypes.c_int,
-            ctypes.POINTER(ctypes.c_int),
-            ctypes.POINTER(ctypes.c_int),
-        ),
-        "EN_getnodevalue": (ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.POINTER(ctypes.c_double)),
-        "EN_getlinkvalue": (ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.POINTER(ctypes.c_double)),
-        "EN_setlinkvalue": (ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_double),
-        "EN_setnodevalue": (ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_double),
-        "EN_getnodevalues": (ctypes.c_void_p, ctypes.c_int, ctypes.c_void_p),
-        "EN_getnumdemands": (ctypes.c_void_p, ctypes.c_int, ctypes.POINTER(ctypes.c_int)),
-        "EN_getbasedemand": (ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.POINTER(ctypes.c_double)),
-        "EN_setdemandpattern": (ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_int),
-        "EN_addpattern": (ctypes.c_void_p, ctypes.c_char_p),
-        "EN_getpatternindex": (ctypes.c_void_p, ctypes.c_char_p, ctypes.POINTER(ctypes.c_int)),
-        "EN_setpattern": (ctypes.c_void_p, ctypes.c_int, ctypes.c_void_p, ctypes.c_int),
-        "EN_gettimeparam": (ctypes.c_void_p, ctypes.c_int, ctypes.POINTER(ctypes.c_long)),
-        "EN_settimeparam": (ctypes.c_void_p, ctypes.c_int, ctypes.c_long),
-        "EN_getdemandmodel": (
-            ctypes.c_void_p,
-            ctypes.POINTER(ctypes.c_int),
-            ctypes.POINTER(ctypes.c_double),
-            ctypes.POINTER(ctypes.c_double),
-            ctypes.POINTER(ctypes.c_double),
-        ),
-        "EN_setdemandmodel": (ctypes.c_void_p, ctypes.c_int, ctypes.c_double, ctypes.c_double, ctypes.c_double),
-        "EN_getflowunits": (ctypes.c_void_p, ctypes.POINTER(ctypes.c_int)),
-        "EN_getcontrol": (
-            ctypes.c_void_p,
-            ctypes.c_int,
-            ctypes.POINTER(ctypes.c_int),
-            ctypes.POINTER(ctypes.c_int),
-            ctypes.POINTER(ctypes.c_double),
-            ctypes.POINTER(ctypes.c_int),
-            ctypes.POINTER(ctypes.c_double),
-        ),
-        "EN_setcontrolenabled": (ctypes.c_void_p, ctypes.c_int, ctypes.c_int),
-        "EN_getrule": (
-            ctypes.c_void_p,
-            ctypes.c_int,
-            ctypes.POINTER(ctypes.c_int),
-            ctypes.POINTER(ctypes.c_int),
-            ctypes.POINTER(ctypes.c_int),
-            ctypes.POINTER(ctypes.c_double),
-        ),
-        "EN_getthenaction": (
-            ctypes.c_void_p,
-            ctypes.c_int,
-            ctypes.c_int,
-            ctypes.POINTER(ctypes.c_int),
-            ctypes.POINTER(ctypes.c_int),
-            ctypes.POINTER(ctypes.c_double),
-        ),
-        "EN_getelseaction": (
-            ctypes.c_void_p,
-            ctypes.c_int,
-            ctypes.c_int,
-            ctypes.POINTER(ctypes.c_int),
-            ctypes.POINTER(ctypes.c_int),
-            ctypes.POINTER(ctypes.c_double),
-        ),
-        "EN_setruleenabled": (ctypes.c_void_p, ctypes.c_int, ctypes.c_int),
-        "EN_getpumptype": (ctypes.c_void_p, ctypes.c_int, ctypes.POINTER(ctypes.c_int)),
-        "EN_getheadcurveindex": (ctypes.c_void_p, ctypes.c_int, ctypes.POINTER(ctypes.c_int)),
-        "EN_getcurvelen": (ctypes.c_void_p, ctypes.c_int, ctypes.POINTER(ctypes.c_int)),
-        "EN_getcurvevalue": (
-            ctypes.c_void_p,
-            ctypes.c_int,
-            ctypes.c_int,
-            ctypes.POINTER(ctypes.c_double),
-            ctypes.POINTER(ctypes.c_double),
-        ),
-        "EN_openH": (ctypes.c_void_p,),
-        "EN_initH": (ctypes.c_void_p, ctypes.c_int),
-        "EN_runH": (ctypes.c_void_p, ctypes.POINTER(ctypes.c_long)),
-        "EN_nextH": (ctypes.c_void_p, ctypes.POINTER(ctypes.c_long)),
-        "EN_closeH": (ctypes.c_void_p,),
-        "EN_geterror": (ctypes.c_int, ctypes.c_char_p, ctypes.c_int),
-        "EN_getversion": (ctypes.POINTER(ctypes.c_int),),
+        "EN_createproject": (_pP,),
+        "EN_deleteproject": (_P,),
+        "EN_open": (_P, _S, _S, _S),
+        "EN_close": (_P,),
+        "EN_getcount": (_P, _I, _pI),
+        "EN_getnodeid": (_P, _I, _S),
+        "EN_getnodetype": (_P, _I, _pI),
+        "EN_getlinkid": (_P, _I, _S),
+        "EN_getlinktype": (_P, _I, _pI),
+        "EN_getlinknodes": (_P, _I, _pI, _pI),
+        "EN_getnodevalue": (_P, _I, _I, _pD),
+        "EN_getlinkvalue": (_P, _I, _I, _pD),
+        "EN_setlinkvalue": (_P, _I, _I, _D),
+        "EN_setnodevalue": (_P, _I, _I, _D),
+        "EN_getnodevalues": (_P, _I, _P),
+        "EN_getnumdemands": (_P, _I, _pI),
+        "EN_getbasedemand": (_P, _I, _I, _pD),
+        "EN_setdemandpattern": (_P, _I, _I, _I),
+        "EN_addpattern": (_P, _S),
+        "EN_getpatternindex": (_P, _S, _pI),
+        "EN_setpattern": (_P, _I, _P, _I),
+        "EN_gettimeparam": (_P, _I, _pL),
+        "EN_settimeparam": (_P, _I, ctypes.c_long),
+        "EN_getdemandmodel": (_P, _pI, _pD, _pD, _pD),
+        "EN_setdemandmodel": (_P, _I, _D, _D, _D),
+        "EN_getflowunits": (_P, _pI),
+        "EN_getcontrol": (_P, _I, _pI, _pI, _pD, _pI, _pD),
+        "EN_setcontrolenabled": (_P, _I, _I),
+        "EN_getrule": (_P, _I, _pI, _pI, _pI, _pD),
+        "EN_getthenaction": (_P, _I, _I, _pI, _pI, _pD),
+        "EN_getelseaction": (_P, _I, _I, _pI, _pI, _pD),
+        "EN_setruleenabled": (_P, _I, _I),
+        "EN_getpumptype": (_P, _I, _pI),
+        "EN_getheadcurveindex": (_P, _I, _pI),
+        "EN_getcurvelen": (_P, _I, _pI),
+        "EN_getcurvevalue": (_P, _I, _I, _pD, _pD),
+        "EN_openH": (_P,),
+        "EN_initH": (_P, _I),
+        "EN_runH": (_P, _pL),
+        "EN_nextH": (_P, _pL),
+        "EN_closeH": (_P,),
+        "EN_geterror": (_I, _S, _I),
+        "EN_getversion": (_pI,),
     }
 
     def __init__(self, library: Path) -> None:
@@ -538,35 +499,29 @@ class Engine:
         episode (the pressure-driven demands EPANET starts its iterations from), which moves results in
         the sixth digit and breaks same-seed determinism; re-opening the solver costs about 15 µs.
         """
-        try:
-            if self._hyd_open:
-                self.tk.closeH(self.ph)
-                self._hyd_open = False
-            self.tk.openH(self.ph)
-            self._hyd_open = True
-            self.tk.initH(self.ph, 0)
-        except EpanetError:
-            raise
-        except Exception as exc:
-            raise EpanetError(f"EPANET failed to start the hydraulics: {exc}") from None
+        if self._hyd_open:
+            self._call("closeH", self.tk.closeH, self.ph)
+            self._hyd_open = False
+        self._call("openH", self.tk.openH, self.ph)
+        self._hyd_open = True
+        self._call("initH", self.tk.initH, self.ph, 0)
 
     def run(self) -> int:
         """``EN_runH``: solve at the current clock time; returns the time (s)."""
-        try:
-            return self.backend.run(self.ph)  # type: ignore[no-any-return]
-        except EpanetError:
-            raise
-        except Exception as exc:
-            raise EpanetError(f"EPANET runH failed: {exc}") from None
+        return self._call("runH", self.backend.run, self.ph)  # type: ignore[no-any-return]
 
     def next(self) -> int:
         """``EN_nextH``: advance to the next hydraulic event; returns the step (s), 0 at the end."""
+        return self._call("nextH", self.tk.nextH, self.ph)  # type: ignore[no-any-return]
+
+    @staticmethod
+    def _call(what: str, fn: Any, *args: Any) -> Any:
         try:
-            return self.tk.nextH(self.ph)  # type: ignore[no-any-return]
+            return fn(*args)
         except EpanetError:
             raise
-        except Exception as exc:
-            raise EpanetError(f"EPANET nextH failed: {exc}") from None
+        except Exception as exc:  # owa-epanet raises a bare Exception("Error 2xx: ...")
+            raise EpanetError(f"EPANET {what} failed: {exc}") from None
 
     def close(self) -> None:
         """Release the solver, the project and the temporary folder (idempotent)."""

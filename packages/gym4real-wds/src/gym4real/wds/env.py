@@ -25,7 +25,7 @@ DAY = 86_400.0
 OPTIONS = ("pattern", "profile_index", "is_evaluation")
 
 
-class WDSEnv(gym.Env[np.ndarray, int]):
+class WDSEnv(gym.Env[np.ndarray, np.int64]):
     """Switch the pumps of a water distribution network to keep demand satisfied without overfilling tanks.
 
     ## Description
@@ -79,7 +79,8 @@ class WDSEnv(gym.Env[np.ndarray, int]):
     ``validation`` and ``test`` (test profiles, weights 1 / 1 so that the return is the paper's
     cumulative DSR - OVF). Overrides are :class:`~gym4real.wds.config.WDSConfig` fields. Reset options:
     ``profile_index`` (test profile), ``is_evaluation`` (a random test profile), ``pattern`` (your own
-    multipliers, within the profiles' range).
+    multipliers, within the profiles' range). ``render_mode``: ``ansi`` (a text line) or ``rgb_array``
+    (tank gauges and pump lamps).
 
     ## Corrected mode and ``fidelity="upstream"``
     The default fixes the reference's defects; ``fidelity="upstream"`` restores them (``fixes.*`` switch
@@ -98,10 +99,17 @@ class WDSEnv(gym.Env[np.ndarray, int]):
        pressures.
     5. Seeding: corrected, draws from ``self.np_random``; upstream, from a private legacy generator seeded
        with ``seed`` (42) and re-seeded by ``reset(seed=)`` (the reference used the global one).
-    6. Engine life cycle: one project per env, report file in a private temporary folder, ``openH`` once,
-       ``initH`` per reset, everything released by ``close()`` or garbage collection (both modes).
-    7. Information: pump statuses, tank levels, volumes and the profile in ``info`` (both modes); no print.
-    8. Observation bounds hold in both modes (the reference's Box is violated by its own values).
+    6. Tank events (``fixes.exact_tank_events``): EPANET rounds the time until a tank empties or fills to
+       whole seconds and ignores events under half a second, so an all-but-empty tank (a few litres) keeps
+       supplying the network for a whole hydraulic step (DSR 1 with empty tanks and pumps off, water
+       created from nothing). Corrected: such a tank is set to its limit before the solve, and the tanks'
+       volume change equals pumped minus delivered volume. Upstream: EPANET's behaviour.
+    7. Engine life cycle: one project per env, report file in a private temporary folder (removed at
+       once on POSIX), a fresh hydraulic solver per episode (``closeH``/``openH``/``initH``: ``initH``
+       alone carries solver state across episodes and breaks same-seed determinism), everything
+       released by ``close()`` or garbage collection (both modes).
+    8. Information: pump statuses, tank levels, volumes and the profile in ``info`` (both modes); no print.
+    9. Observation bounds hold in both modes (the reference's Box is violated by its own values).
 
     Controls and rules of the network that switch pumps are disabled: the agent alone acts. The
     ``[CONTROLS]`` tank-level rule (commented out in Anytown) is parsed for the ``default`` baseline.
@@ -110,7 +118,7 @@ class WDSEnv(gym.Env[np.ndarray, int]):
     * v0: Gym4ReaL v1.0 dynamics on EPANET 2.3.05, corrected by default.
     """
 
-    metadata = {"render_modes": ["ansi"]}
+    metadata = {"render_modes": ["ansi", "rgb_array"], "render_fps": 4}
 
     def __init__(
         self,
@@ -524,15 +532,34 @@ class WDSEnv(gym.Env[np.ndarray, int]):
         if self._engine.ph is None:
             raise RuntimeError("this WDSEnv is closed; create a new one")
 
-    def render(self) -> str | None:
-        """One line (``render_mode="ansi"``): time, pumps and tank levels."""
-        if self.render_mode != "ansi":
-            return None
-        pumps = " ".join(
-            f"{p}={'on' if s else 'off'}" for p, s in zip(self.network.pump_ids, self._statuses, strict=True)
-        )
-        tanks = " ".join(f"{t}={x:.2f}m" for t, x in zip(self.network.tank_ids, self._levels, strict=True))
-        return f"t={self._t / 3600:7.2f}h  {pumps}  {tanks}\n"
+    def render(self) -> str | np.ndarray | None:
+        """``ansi``: one line with time, pumps and tank levels. ``rgb_array``: tank gauges over pump lamps."""
+        if self.render_mode == "ansi":
+            net = self.network
+            pumps = " ".join(f"{p}={'on' if s else 'off'}" for p, s in zip(net.pump_ids, self._statuses, strict=True))
+            tanks = " ".join(f"{t}={x:.2f}m" for t, x in zip(net.tank_ids, self._levels, strict=True))
+            return f"t={self._t / 3600:7.2f}h  {pumps}  {tanks}\n"
+        if self.render_mode == "rgb_array":
+            return self._draw_frame()
+        return None
+
+    def _draw_frame(self, height: int = 96, width: int = 24) -> np.ndarray:
+        net = self.network
+        n = max(len(net.tank_ids), self._n_pumps)
+        frame = np.full((height + width, n * width, 3), 255, dtype=np.uint8)
+        span = np.maximum(net.tank_max_level - net.tank_min_level, 1e-9)
+        fill = np.clip((self._levels - net.tank_min_level) / span, 0.0, 1.0)
+        threshold = 1.0 - (self._lambda * net.tank_max_level - net.tank_min_level) / span
+        for i, f in enumerate(fill):
+            x = slice(i * width + 3, (i + 1) * width - 3)
+            frame[:height, x] = (220, 220, 220)
+            frame[height - int(f * height + 0.5) : height, x] = (40, 110, 220)
+            frame[int(np.clip(threshold[i], 0, 1) * (height - 1)), x] = (220, 40, 40)  # overflow threshold
+        for i, s in enumerate(self._statuses):
+            frame[height + 4 : height + width - 4, i * width + 4 : (i + 1) * width - 4] = (
+                (40, 170, 60) if s else (90, 90, 90)
+            )
+        return frame
 
     def close(self) -> None:
         """Release the EPANET project (also done when the env is garbage-collected)."""
