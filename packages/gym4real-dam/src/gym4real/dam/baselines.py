@@ -1,0 +1,58 @@
+"""Rule-based policies of the reference benchmark notebook, and the historical operators.
+
+Every factory takes the environment (``gymnasium.make`` output or raw env) and returns a callable
+``obs -> action``. ``random`` is core's :func:`~gym4real.core.policies.random_policy`.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from gym4real.core.policies import ConstantPolicy
+from gym4real.dam.historical import Historical
+
+
+def mean(env: gym.Env[Any, Any]) -> ConstantPolicy:
+    """Baseline factory: the middle of the action box, ``(low + high) / 2`` (245.805 m3/s by default)."""
+    space = env.action_space
+    return ConstantPolicy(((space.low + space.high) / 2).astype(space.dtype))
+
+
+def max_release(env: gym.Env[Any, Any]) -> ConstantPolicy:
+    """Baseline factory: the top of the action box (491.61 m3/s by default)."""
+    space = env.action_space
+    return ConstantPolicy(space.high.copy())
+
+
+class ExponentialAverageDemand:
+    """Release the exponential average of past demand (the ``ead`` baseline).
+
+    The value is the env's float64 average, as the reference notebook reads it from the previous step's
+    ``info``: 0 at the first step of an episode (the lake then releases the minimum flow), and from then on
+    the average including the previous day's demand.
+    """
+
+    def __init__(self, env: gym.Env[Any, Any]) -> None:
+        self.env = env.unwrapped
+
+    def __call__(self, obs: Any) -> np.ndarray:
+        """Return the average demand as the release."""
+        return np.array([self.env.exponential_average_demand])
+
+
+def ead(env: gym.Env[Any, Any]) -> ExponentialAverageDemand:
+    """Baseline factory: release the exponential average of past demand."""
+    return ExponentialAverageDemand(env)
+
+
+def historical(env: gym.Env[Any, Any]) -> Historical:
+    """Baseline factory: the historical operators, tracking the recorded level (mass balance inverted)."""
+    return Historical(env, mode="track")
+
+
+def historical_replay(env: gym.Env[Any, Any]) -> Historical:
+    """Baseline factory: replay of the historical releases reconstructed from the recorded levels."""
+    return Historical(env, mode="replay")
