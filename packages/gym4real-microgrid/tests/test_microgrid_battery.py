@@ -234,3 +234,15 @@ def test_env_reports_a_bad_table(tmp_path: Path) -> None:
     table.write_text(table.read_text().replace("voc", "ocv", 1))
     with pytest.raises(DataFileError, match=r"voc_pack\.csv.*\['voc'\]"):
         MicrogridEnv(battery={"tables_dir": str(folder / "params")})
+
+
+@pytest.mark.parametrize("fidelity", ["corrected", "upstream"])
+def test_power_limits_are_what_step_clips_to(params: BatteryParams, fidelity: str) -> None:
+    twin = BatteryTwin(params, TwinOptions.for_fidelity(fidelity))
+    twin.reset(soc=0.9, temperature=290.0)
+    lo, hi = twin.power_limits(3600.0)
+    assert lo < 0 < hi
+    assert twin.step(1e6, 3600.0, 290.0) == pytest.approx(hi, rel=1e-12)
+    twin.reset(soc=0.9, temperature=290.0)
+    assert twin.step(-1e6, 3600.0, 290.0) == pytest.approx(lo, rel=1e-12)
+    assert twin.snapshot()["clipped_power"] == pytest.approx(-1e6 - lo)

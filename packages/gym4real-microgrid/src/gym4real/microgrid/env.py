@@ -150,8 +150,9 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
        back as the core's and uses the previous SoC.
     9. Seeding: the profile, the start and a random initial battery come from ``reset(seed=)``;
        upstream draws them from a generator seeded once with ``upstream_seed`` (42) at construction,
-       as the reference's global NumPy seed (``reset(seed)`` has no effect), folds the start time to the
-       first year (12) and ignores ``profile_order``.
+       as the reference's global NumPy seed (``reset(seed)`` has no effect; one generator per env, where
+       the reference's envs of one process share the global one), folds the start time to the first
+       year (12) and ignores ``profile_order``.
 
     Both modes: fresh ``info`` dicts every step and no mutation of the data (10); generation data is
     required and the episode length is explicit (``max_steps``) (11); a missing or malformed data file
@@ -173,9 +174,8 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
         **overrides: Any,
     ) -> None:
         self.config = cfg = MicrogridConfig.build(config, preset, **overrides)
-        if render_mode is not None:
-            msg = f"`render_mode` must be None (MicrogridEnv does not render), not {render_mode!r}"
-            raise ValueError(msg)
+        # No rendering; a render mode is accepted and ignored (gymnasium.make warns about it), because
+        # stable-baselines3's make_vec_env asks every env for "rgb_array".
         self.render_mode = render_mode
         self._upstream = cfg.fidelity == "upstream"
         self._aligned = cfg.fix("data_alignment")
