@@ -227,3 +227,34 @@ def test_no_leak_across_resets_and_envs() -> None:
     gc.collect()
     assert open_fds() == fds
     assert not leftover_tmp()
+
+
+def test_auto_engine_falls_back_and_explains(monkeypatch: pytest.MonkeyPatch) -> None:
+    def missing() -> None:
+        raise ModuleNotFoundError("No module named 'epanet'", name="epanet")
+
+    monkeypatch.setattr(en, "_BACKENDS", {})
+    monkeypatch.setattr(en, "_OwaBackend", missing)
+    if importlib.util.find_spec("epyt") is not None:
+        assert en.backend("auto").name == "epyt"
+        monkeypatch.setattr(en, "_BACKENDS", {})
+    monkeypatch.setattr(en, "_CtypesBackend", missing)
+    with pytest.raises(en.ConfigError, match=r"pip install owa-epanet==2\.3\.5"):
+        en.backend("auto")
+    assert en.engine_info()["engine"] is None
+
+
+@pytest.mark.parametrize(("interval", "hyd"), [(1800, 300), (7200, 3600), (3600, 900)])
+def test_other_decision_intervals(interval: int, hyd: int) -> None:
+    e = WDSEnv(decision_interval=interval, hydraulic_step=hyd, duration=86_400)
+    try:
+        assert e.effective_hydraulic_step == min(hyd, interval, 3600)
+        e.reset(options={"profile_index": 4})
+        n, truncated = 0, False
+        while not truncated:
+            _, _, _, truncated, info = e.step(n % 4)
+            n += 1
+            assert info["time"] == n * interval
+        assert n == 86_400 // interval
+    finally:
+        e.close()

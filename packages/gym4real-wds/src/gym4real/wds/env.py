@@ -119,6 +119,7 @@ class WDSEnv(gym.Env[np.ndarray, np.int64]):
     """
 
     metadata = {"render_modes": ["ansi", "rgb_array"], "render_fps": 4}
+    reward_component_names = ("dsr", "overflow")
 
     def __init__(
         self,
