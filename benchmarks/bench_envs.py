@@ -2,7 +2,8 @@
 
 For each id: the raw env (``env.unwrapped``) and the env from ``gymnasium.make`` (with its wrappers), one
 copy and a ``SyncVectorEnv`` of 8; random actions drawn beforehand; warm (one episode first); median of
-several timed runs. Reports microseconds per step, steps per second and seconds per episode.
+several timed runs. Reports microseconds per step, steps per second and seconds per episode; for envs with a native batched
+``VectorEnv`` (``vector_entry_point``), its steps per second with 1024 copies.
 
     python benchmarks/bench_envs.py [--ids gym4real/dam-v0,...] [--repeats 5] [--budget 1.0] [--kwargs JSON]
 """
@@ -82,6 +83,19 @@ def bench_env(env_id: str, repeats: int, budget: float, kwargs: dict[str, Any]) 
 
     row["vec8_steps_per_s"] = 8 * m / _median_time(run_vec, repeats)
     vec.close()
+    row["native1024_steps_per_s"] = float("nan")
+    if gym.spec(env_id).vector_entry_point:  # the env's own batched VectorEnv
+        native = gym.make_vec(env_id, num_envs=1024, vectorization_mode="vector_entry_point", **kwargs)
+        native.reset(seed=3)
+        native.action_space.seed(3)
+        steps = [native.action_space.sample() for _ in range(200)]
+
+        def run_native() -> None:
+            for a in steps:
+                native.step(a)
+
+        row["native1024_steps_per_s"] = 1024 * len(steps) / _median_time(run_native, repeats)
+        native.close()
     return row
 
 

@@ -25,6 +25,7 @@ def gym4real_register_envs() -> list[EnvSpec]:
         EnvSpec(
             id=ENV_ID,
             entry_point="gym4real.trading.env:TradingEnv",
+            vector_entry_point="gym4real.trading.vector:TradingVectorEnv",
             description="Intraday EUR/USD trading on historical mid prices, one trading day per episode",
             flags=frozenset(
                 {

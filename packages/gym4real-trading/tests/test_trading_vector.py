@@ -1,0 +1,42 @@
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import gym4real  # noqa: F401
+from gym4real.trading.env import TradingEnv
+from gym4real.trading.vector import TradingVectorEnv
+
+
+@pytest.mark.parametrize("fidelity", ["corrected", "upstream"])
+def test_batched_copies_follow_the_single_env_step_by_step(fidelity: str) -> None:
+    n = 5
+    vec = gym.make_vec("gym4real/trading-v0", num_envs=n, vectorization_mode="vector_entry_point", fidelity=fidelity)
+    singles = [TradingEnv(fidelity=fidelity) for _ in range(n)]
+    obs, _ = vec.reset(seed=21)
+    single_obs = [e.reset(seed=21 + i)[0] for i, e in enumerate(singles)]
+    rng = np.random.default_rng(1)
+    done = False
+    steps = 0
+    while not done:
+        np.testing.assert_array_equal(obs, np.stack(single_obs))
+        actions = rng.integers(0, 3, size=n)
+        obs, rewards, terminated, truncated, info = vec.step(actions)
+        outs = [e.step(int(a)) for e, a in zip(singles, actions, strict=True)]
+        single_obs = [o[0] for o in outs]
+        np.testing.assert_allclose(rewards, [o[1] for o in outs], rtol=0, atol=1e-9)
+        np.testing.assert_array_equal(terminated, [o[2] for o in outs])
+        np.testing.assert_array_equal(truncated, [o[3] for o in outs])
+        np.testing.assert_allclose(info["reward_components"]["fees"], [o[4]["reward_components"]["fees"] for o in outs])
+        done = bool(truncated.all())
+        steps += 1
+    assert steps == singles[0].n_steps
+    np.testing.assert_allclose(vec.unwrapped.cum_pnl, [e.cum_pnl for e in singles])
+
+
+def test_bad_actions_are_refused() -> None:
+    vec = TradingVectorEnv(2)
+    vec.reset(seed=0)
+    with pytest.raises(ValueError, match="actions must be"):
+        vec.step(np.array([1, 5]))
