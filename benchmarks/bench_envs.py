@@ -2,8 +2,8 @@
 
 For each id: the raw env (``env.unwrapped``) and the env from ``gymnasium.make`` (with its wrappers), one
 copy and a ``SyncVectorEnv`` of 8; random actions drawn beforehand; warm (one episode first); median of
-several timed runs. Reports microseconds per step, steps per second and seconds per episode; for envs with a native batched
-``VectorEnv`` (``vector_entry_point``), its steps per second with 1024 copies.
+several timed runs. Reports microseconds per step, steps per second and seconds per episode; for envs
+with a native batched ``VectorEnv`` (``vector_entry_point``), its steps per second with 1024 copies.
 
     python benchmarks/bench_envs.py [--ids gym4real/dam-v0,...] [--repeats 5] [--budget 1.0] [--kwargs JSON]
 """
@@ -115,6 +115,7 @@ def main() -> None:
         "make_us_per_step",
         "raw_steps_per_s",
         "vec8_steps_per_s",
+        "native1024_steps_per_s",
         "episode_steps",
         "raw_episode_s",
     ]
