@@ -246,3 +246,14 @@ def test_power_limits_are_what_step_clips_to(params: BatteryParams, fidelity: st
     twin.reset(soc=0.9, temperature=290.0)
     assert twin.step(-1e6, 3600.0, 290.0) == pytest.approx(lo, rel=1e-12)
     assert twin.snapshot()["clipped_power"] == pytest.approx(-1e6 - lo)
+
+
+def test_scalar_components_replace_a_table(tmp_path: Path) -> None:
+    folder = copy_battery(tmp_path)
+    electrical = folder / "models" / "electrical.yaml"
+    text = electrical.read_text()
+    start = text.index("  r1:")
+    electrical.write_text(text[:start] + text[start:].replace("selected_type: lookup", "selected_type: scalar", 1))
+    params = load_battery(electrical=electrical)
+    assert params.grid.bilinear(17.0, 0.33)[1] == 10.0  # the YAML's `scalar: 10.` of r1
+    assert params.grid.bilinear(20.0, 0.5)[0] == table_value("r0", "r0", 20, 0.5)

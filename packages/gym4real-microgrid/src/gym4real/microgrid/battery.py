@@ -157,6 +157,7 @@ def _electrical_grid(model: Mapping[str, Any], path: Path, table_path: Any) -> P
         comp = _component(model, name, path)
         if comp["selected_type"] == "scalar":
             tables.append(_get(comp, "scalar", path))
+            sources.append(f"{path} (scalar `{name}`)")
             continue
         lookup = _get(comp, "lookup", path, dict)
         file = _get(lookup, "table", path, str)
@@ -175,9 +176,9 @@ def _electrical_grid(model: Mapping[str, Any], path: Path, table_path: Any) -> P
     looked_up = [t for t in tables if isinstance(t, dict)]
     if not looked_up:
         return ParameterGrid.constant(*(float(t) for t in tables))  # type: ignore[arg-type]
-    shape = next(iter(looked_up))
-    full = [t if isinstance(t, dict) else dict.fromkeys(shape, t) for t in tables]
-    return ParameterGrid.from_tables(full, sources + [sources[0]] * (4 - len(sources)))
+    first = looked_up[0]
+    full = [t if isinstance(t, dict) else dict.fromkeys(first, t) for t in tables]
+    return ParameterGrid.from_tables(full, sources)
 
 
 def _aging(model: Mapping[str, Any], path: Path) -> AgingParams:

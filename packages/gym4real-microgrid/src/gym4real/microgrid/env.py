@@ -275,7 +275,7 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
         if profile is not None:
             profile = str(profile)
             if profile not in self.world.labels:
-                msg = f"`options['profile']` {profile!r} is not a demand column; available: {list(labels)}"
+                msg = f"`options['profile']` {profile!r} is not a demand column; available: {list(self.world.labels)}"
                 raise ValueError(msg)
         elif rng is not None:
             profile = str(rng.choice(list(labels)))
@@ -312,7 +312,7 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
         zeros = {"trading": 0.0, "degradation": 0.0, "clipping": 0.0}
         info = {
             "profile": profile,
-            "start": row,
+            "start": self._row,
             "soc": self.battery.soc,
             "soh": self.battery.soh,
             "reward_components": zeros,
