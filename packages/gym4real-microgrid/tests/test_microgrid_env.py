@@ -285,3 +285,17 @@ def test_malformed_data_file(tmp_path: Path) -> None:
     bad.write_text("timestamp,delta_time\n2019-01-01,0\n2019-01-01 01:00,3600\n")
     with pytest.raises(DataFileError, match=r"pv\.csv.*lacks column\(s\) \['PV'\]"):
         MicrogridEnv(data={"generation": str(bad)})
+
+
+@pytest.mark.parametrize(("fidelity", "row"), [("corrected", 8759), ("upstream", 0)])
+def test_last_step_trades_the_last_hour_or_wraps_like_the_reference(fidelity: str, row: int) -> None:
+    pv = pd.read_csv(DATA / "generation" / "pv_ninja_2019-2020_3kW_test.csv")["PV"].to_numpy()
+    market = pd.read_csv(DATA / "market" / "gme_2019-2020_test.csv")
+    demand = pd.read_csv(DATA / "demand" / "profiles_test.csv")["370"].to_numpy()
+    env = MicrogridEnv(preset="test", fidelity=fidelity)
+    env.reset(options={"profile": "370"})
+    env._row, env._iterations = 8759, 8758  # the last hour of 2019
+    _, _, _, truncated, info = env.step(np.array([0.0], np.float32))
+    net = pv[row] - demand[8759]  # demand wraps at 8760 rows in both modes
+    price = market["bid"][row] if net >= 0 else market["ask"][row]
+    assert truncated and info["pure_components"]["trading"] == pytest.approx(net * price, rel=1e-12)
