@@ -155,7 +155,6 @@ def gym4real_register_benchmarks() -> list[BenchmarkSpec | TrainingSpec]:
             protocol="gym4real.robofeeder.evaluation:test_episodes",
             env_kwargs={"preset": "test"},
             policies=("fixed", "oracle"),
-            objective=("success", "shaping"),
             final_info=("objects_picked",),
             description="100 seeded episodes (seeds 1000..1099), one object uniformly placed in the spawn area",
         )
@@ -166,7 +165,6 @@ def gym4real_register_benchmarks() -> list[BenchmarkSpec | TrainingSpec]:
         protocol="gym4real.robofeeder.evaluation:test_episodes",
         env_kwargs={"preset": "planning_test"},
         policies=("random", "oracle"),
-        objective=("picked", "failed", "idle"),
         final_info=("objects_picked",),
         description="50 seeded episodes (seeds 1000..1049), three objects",
     )

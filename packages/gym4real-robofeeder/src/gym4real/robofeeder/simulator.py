@@ -90,6 +90,27 @@ def tilt_of(quat: np.ndarray) -> np.ndarray:
     return np.arccos(np.clip(zz, -1.0, 1.0))
 
 
+def footprint_centre(model: mujoco.MjModel, resolution: float = 1e-4) -> np.ndarray:
+    """Centroid of an object's silhouette seen from above, in its body frame (z = 0): the part's visual mesh
+    rasterised on a 0.1 mm grid."""
+    import cv2
+
+    g = model.geom("obj0").id
+    mesh = model.geom_dataid[g]
+    verts = model.mesh_vert[model.mesh_vertadr[mesh]: model.mesh_vertadr[mesh] + model.mesh_vertnum[mesh]]
+    faces = model.mesh_face[model.mesh_faceadr[mesh]: model.mesh_faceadr[mesh] + model.mesh_facenum[mesh]]
+    rot = np.zeros(9)
+    mujoco.mju_quat2Mat(rot, model.geom_quat[g])
+    body = verts @ rot.reshape(3, 3).T + model.geom_pos[g]
+    half = float(np.abs(body[:, :2]).max()) + 1e-3
+    cells = int(np.ceil(2 * half / resolution))
+    mask = np.zeros((cells, cells), np.uint8)
+    for tri in np.round((body[faces][:, :, :2] + half) / resolution).astype(np.int32):
+        cv2.fillConvexPoly(mask, tri, 1)
+    ys, xs = np.nonzero(mask)
+    return np.array([xs.mean() * resolution - half, ys.mean() * resolution - half, 0.0])
+
+
 @functools.lru_cache(maxsize=8)
 def _rest_pose(n_objects: int, data_dir: str | None) -> tuple[float, tuple[float, ...]]:
     """Height and body tilt quaternion of an object lying on the bin floor (found once by dropping one)."""
@@ -142,6 +163,7 @@ class Simulator:
             np.array([centre[0], centre[1], BASE_Z + PICK_Z + PRE_PICK_LIFT]), np.zeros(6), fixed_j6=np.pi / 2
         ).q
         self._yaw_cache: dict[tuple[float, float], float] = {}
+        self.footprint_centre = footprint_centre(m)
         self.renderer = LazyRenderer(m, config.image_size, config.image_size, effects=config.render_effects)
         self.physics_steps = 0
 
@@ -169,9 +191,9 @@ class Simulator:
         return self.data.site_xpos[self.object_sites].copy()
 
     def object_centres(self) -> np.ndarray:
-        """World centres of the objects' footprints (N x 3): body point (0.0025, 0.0004, 0)."""
+        """World centres of the objects' silhouettes seen from above (N x 3, at the body origin's height)."""
         mujoco.mj_kinematics(self.model, self.data)
-        local = np.array([0.0025, 0.0004, 0.0])
+        local = self.footprint_centre
         out = []
         for b in self.object_bodies:
             out.append(self.data.xpos[b] + self.data.xmat[b].reshape(3, 3) @ local)

@@ -1,0 +1,41 @@
+"""Evaluation protocol, the core benchmark on a few episodes and the package's extra figures."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from gym4real.core.benchmark import benchmark
+from gym4real.robofeeder import figures
+from gym4real.robofeeder.evaluation import test_episodes as protocol
+
+
+def test_protocol_sizes() -> None:
+    assert len(protocol({"preset": "test"})) == 100
+    plan = protocol({"preset": "planning_test"})
+    assert len(plan) == 50 and plan[0] == {"seed": 1000, "options": None}
+
+
+def test_core_benchmark_runs(tmp_path: Path) -> None:
+    result = benchmark("gym4real/robofeeder-picking-v0", ["fixed", "oracle"], episodes=3, out=tmp_path)
+    summary = result.summary()
+    assert summary.loc["oracle", "mean"] > summary.loc["fixed", "mean"]
+    assert (tmp_path / "cumulative_reward.png").is_file() and (tmp_path / "returns_boxplot.png").is_file()
+
+
+def test_extra_figures(tmp_path: Path) -> None:
+    paths = figures.picking_heatmap(tmp_path, ["oracle"], grid=2, seeds=1)
+    assert all(p.is_file() and p.stat().st_size > 0 for p in paths)
+    rows = paths[1].read_text().splitlines()
+    assert rows[0] == "policy,x,y,success_rate" and len(rows) == 5
+    paths = figures.planning_returns(tmp_path, ["random"], objects=[1, 2], episodes=1, seeds=2)
+    assert all(p.is_file() for p in paths)
+    assert len(paths[1].read_text().splitlines()) == 1 + 2 * 2
+
+
+@pytest.mark.parametrize("figure", ["heatmap", "planning"])
+def test_figures_cli_help(figure: str, capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit):
+        figures.main([figure, "--help"])
+    assert "--out" in capsys.readouterr().out
