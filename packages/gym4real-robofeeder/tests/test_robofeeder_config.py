@@ -42,7 +42,8 @@ def test_validation_errors(overrides: dict, message: str) -> None:
 def test_reference_constants() -> None:
     c = PickingConfig.build()
     assert (c.controller.long_pause, c.controller.short_pause) == (0.025, 0.016)
-    assert (c.controller.delta_gripper, c.controller.open_gripper, c.controller.close_gripper) == (0.00355, 0.008, 0.00125)
+    gripper = (c.controller.delta_gripper, c.controller.open_gripper, c.controller.close_gripper)
+    assert gripper == (0.00355, 0.008, 0.00125)
     assert (c.reward.distance_weight, c.reward.delta_d, c.reward.delta_theta) == (0.85, 0.012, 0.35)
     assert (c.settle_steps, c.post_pick_steps, c.success_radius) == (900, 400, 0.12)
 

@@ -26,7 +26,7 @@ def test_spaces() -> None:
         env = gym.make(env_id)
         assert env.action_space == gym.spaces.Box(-1, 1, (3,), np.float32)
         assert env.observation_space.shape == shape and env.observation_space.dtype == np.float32
-        obs, info = env.reset(seed=0)
+        obs, _ = env.reset(seed=0)
         assert env.observation_space.contains(obs) and obs.max() > 0.5  # a bright part is in view
         assert env.spec.max_episode_steps == 2
         env.close()
@@ -67,10 +67,10 @@ def test_oracle_on_full_image() -> None:
 
 
 def test_failed_pick_is_shaped_and_scaled(v0) -> None:
-    obs, _ = v0.reset(seed=3)
+    v0.reset(seed=3)
     total, steps = 0.0, 0
     while True:
-        obs, reward, terminated, truncated, info = v0.step(np.array([1.0, 1.0, -1.0]))  # 25 px off, wrong yaw
+        _, reward, terminated, truncated, info = v0.step(np.array([1.0, 1.0, -1.0]))  # 25 px off, wrong yaw
         steps += 1
         comps = info["reward_components"]
         assert reward == pytest.approx(sum(comps.values()))
@@ -102,7 +102,7 @@ def test_unfeasible_target_costs_and_does_not_move() -> None:
 def test_upstream_attempts_every_target() -> None:
     env = gym.make(V1, fidelity="upstream")
     env.reset(seed=0)
-    _, reward, terminated, truncated, info = env.step(np.array([0.0, 0.95, 0.0]))
+    _, reward, _, _, info = env.step(np.array([0.0, 0.95, 0.0]))
     assert info["feasible"] and info["cost"] == 0.0 and reward < 0
     env.close()
 
@@ -136,7 +136,7 @@ def test_fixed_baseline_and_info(v0) -> None:
 
 
 def test_placements_option_and_graspable_yaw(v0) -> None:
-    obs, _ = v0.reset(seed=4, options={"placements": [[0.0, -0.3]]})
+    v0.reset(seed=4, options={"placements": [[0.0, -0.3]]})
     sim = v0.unwrapped.sim
     pixel = sim.camera.world_to_pixel(sim.object_centres()[0])
     assert np.linalg.norm(pixel - [150, 105]) < 6  # placed where asked (parallax of the lower origin aside)

@@ -38,10 +38,10 @@ def test_reference_angle_for_yaw_only_objects() -> None:
 
 def test_upstream_episode_runs_the_reference_script() -> None:
     env = gym.make("gym4real/robofeeder-picking-v0", fidelity="upstream", n_objects=3)
-    obs, _ = env.reset(seed=0)
+    env.reset(seed=0)
     sim = env.unwrapped.sim
     assert sim.physics_steps >= 900  # dropped from 0.21 m and settled 900 steps
-    _, reward, terminated, truncated, info = env.step(np.zeros(3))
+    _, reward, _, _, info = env.step(np.zeros(3))
     assert info["feasible"] and -0.5 <= reward <= 0.5
     np.testing.assert_array_equal(sim.last_q, np.zeros(6))  # the reference never updates `last_pos`
     env.close()

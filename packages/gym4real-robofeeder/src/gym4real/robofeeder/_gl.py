@@ -1,4 +1,4 @@
-"""Choice of the headless OpenGL backend, made before MuJoCo is imported.
+"""Choice of the headless OpenGL backend, made before MuJoCo is imported (and MuJoCo itself).
 
 MuJoCo fixes its OpenGL backend from ``MUJOCO_GL`` when ``mujoco`` is first imported, so every module
 of this package that imports ``mujoco`` imports this one first. A ``MUJOCO_GL`` set by the user is
@@ -112,3 +112,9 @@ def backend_error(cause: BaseException | None = None) -> str:
 
 
 select_backend()
+
+# Only now: MuJoCo fixes its OpenGL backend when first imported. Modules of this package import
+# `mujoco` from here (`from gym4real.robofeeder._gl import mujoco`), never directly.
+import mujoco  # noqa: E402
+
+__all__ = ["CHOICE", "backend_error", "context_class", "mujoco", "select_backend"]

@@ -58,7 +58,7 @@ class CameraModel:
     def world_to_pixel(self, point: np.ndarray) -> np.ndarray:
         """Pixel (u, v) of world point(s) (x, y, z); shape (..., 3) -> (..., 2)."""
         xyz = np.asarray(point, dtype=float)
-        homog = np.concatenate([xyz, np.ones(xyz.shape[:-1] + (1,))], -1) @ self.projection.T
+        homog = np.concatenate([xyz, np.ones((*xyz.shape[:-1], 1))], -1) @ self.projection.T
         return homog[..., :2] / homog[..., 2:3]
 
     def plane_height(self) -> float:

@@ -206,7 +206,8 @@ class RoboFeederPickingEnv(RoboFeederBaseEnv):
     def _target_pixel(self, a: np.ndarray) -> np.ndarray:
         return self._centre + a[:2] * (self.crop_size / 2.0)
 
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+    def reset(self, *, seed: int | None = None,
+              options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
         """Spawn the objects and observe.
 
         Args:

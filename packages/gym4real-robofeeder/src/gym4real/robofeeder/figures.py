@@ -8,8 +8,10 @@
 
 Command line (writes PNG + CSV into ``--out``)::
 
-    python -m gym4real.robofeeder.figures heatmap --out results/robofeeder [--grid 10 --seeds 5 --policies fixed,oracle]
-    python -m gym4real.robofeeder.figures planning --out results/robofeeder [--objects 1,2,3,4,5 --episodes 50 --seeds 5]
+    python -m gym4real.robofeeder.figures heatmap --out results/robofeeder [--grid 10 --seeds 5]
+        [--policies fixed,oracle]
+    python -m gym4real.robofeeder.figures planning --out results/robofeeder [--objects 1,2,3,4,5]
+        [--episodes 50 --seeds 5]
 """
 
 from __future__ import annotations

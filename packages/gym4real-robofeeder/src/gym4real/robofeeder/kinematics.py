@@ -10,10 +10,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from gym4real.robofeeder import _gl  # noqa: F401  (chooses MUJOCO_GL before mujoco is imported)
+import numpy as np
 
-import mujoco  # noqa: E402
-import numpy as np  # noqa: E402
+from gym4real.robofeeder._gl import mujoco
 
 ARM_JOINTS = tuple(f"joint_{i}" for i in range(1, 7))
 DOWN = np.array([0.0, 0.0, -1.0])

@@ -111,7 +111,8 @@ class RoboFeederPlanningEnv(RoboFeederBaseEnv):
         self._obs, self._centres, self._filled = crops[order], centres[order], filled[order]
         return self._obs.copy()
 
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+    def reset(self, *, seed: int | None = None,
+              options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
         """Spawn the objects and observe.
 
         Args:
@@ -163,7 +164,8 @@ class RoboFeederPlanningEnv(RoboFeederBaseEnv):
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Idle (0) or let the picking agent grasp the object of crop ``action``."""
         arr = np.asarray(action)
-        if arr.size != 1 or not np.issubdtype(arr.dtype, np.integer) or not 0 <= int(arr.reshape(-1)[0]) <= self.n_crops:
+        valid = arr.size == 1 and np.issubdtype(arr.dtype, np.integer)
+        if not valid or not 0 <= int(arr.reshape(-1)[0]) <= self.n_crops:
             raise ValueError(f"action must be an integer in [0, {self.n_crops}], got {action!r}")
         a = int(arr.reshape(-1)[0])
         comps = {"picked": 0.0, "failed": 0.0, "idle": 0.0}

@@ -9,10 +9,10 @@ from __future__ import annotations
 
 from typing import Any
 
-from gym4real.robofeeder import _gl
+import numpy as np
 
-import mujoco  # noqa: E402
-import numpy as np  # noqa: E402
+from gym4real.robofeeder import _gl
+from gym4real.robofeeder._gl import mujoco
 
 
 class RenderingError(RuntimeError):

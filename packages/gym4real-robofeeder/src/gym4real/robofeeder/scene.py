@@ -13,13 +13,10 @@ import functools
 import re
 from pathlib import Path, PurePosixPath
 
-from gym4real.robofeeder import _gl  # noqa: F401  (chooses MUJOCO_GL before mujoco is imported)
-
-import mujoco  # noqa: E402
-
-from gym4real.core.datasets import resolve  # noqa: E402
-from gym4real.core.errors import DataFileError  # noqa: E402
-from gym4real.robofeeder._plugin import DOMAIN, MODEL_FILES  # noqa: E402
+from gym4real.core.datasets import resolve
+from gym4real.core.errors import DataFileError
+from gym4real.robofeeder._gl import mujoco
+from gym4real.robofeeder._plugin import DOMAIN, MODEL_FILES
 
 MAIN_XML = "urdf/tx2_60.xml"
 PATTERN_XML = "urdf/object_v2pattern.xml"

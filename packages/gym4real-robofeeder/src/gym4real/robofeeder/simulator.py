@@ -10,16 +10,14 @@ from __future__ import annotations
 import functools
 from dataclasses import dataclass, field
 
-from gym4real.robofeeder import _gl  # noqa: F401  (chooses MUJOCO_GL before mujoco is imported)
+import numpy as np
 
-import mujoco  # noqa: E402
-import numpy as np  # noqa: E402
-
-from gym4real.robofeeder.camera import CameraModel  # noqa: E402
-from gym4real.robofeeder.config import RoboFeederConfig  # noqa: E402
-from gym4real.robofeeder.kinematics import ArmKinematics  # noqa: E402
-from gym4real.robofeeder.rendering import LazyRenderer  # noqa: E402
-from gym4real.robofeeder.scene import build_model  # noqa: E402
+from gym4real.robofeeder._gl import mujoco
+from gym4real.robofeeder.camera import CameraModel
+from gym4real.robofeeder.config import RoboFeederConfig
+from gym4real.robofeeder.kinematics import ArmKinematics
+from gym4real.robofeeder.rendering import LazyRenderer
+from gym4real.robofeeder.scene import build_model
 
 #: Robot base height (m): IK targets of the reference are in the base frame.
 BASE_Z = 0.11
@@ -91,8 +89,10 @@ def tilt_of(quat: np.ndarray) -> np.ndarray:
 
 
 def footprint_centre(model: mujoco.MjModel, resolution: float = 1e-4) -> np.ndarray:
-    """Centroid of an object's silhouette seen from above, in its body frame (z = 0): the part's visual mesh
-    rasterised on a 0.1 mm grid."""
+    """Centroid of an object's silhouette seen from above, in its body frame (z = 0).
+
+    The part's visual mesh is rasterised on a 0.1 mm grid.
+    """
     import cv2
 
     g = model.geom("obj0").id
