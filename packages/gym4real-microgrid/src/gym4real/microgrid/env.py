@@ -174,8 +174,8 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
         **overrides: Any,
     ) -> None:
         self.config = cfg = MicrogridConfig.build(config, preset, **overrides)
-        # No rendering; a render mode is accepted and ignored (gymnasium.make warns about it), because
-        # stable-baselines3's make_vec_env asks every env for "rgb_array".
+        if render_mode is not None:
+            raise ValueError(f"MicrogridEnv has no rendering: render_mode must be None, not {render_mode!r}")
         self.render_mode = render_mode
         self._upstream = cfg.fidelity == "upstream"
         self._aligned = cfg.fix("data_alignment")

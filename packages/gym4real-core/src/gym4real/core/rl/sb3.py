@@ -110,7 +110,9 @@ def train_sb3(env_id: str, hp: dict[str, Any], seed: int, out: Path, progress: b
         raise ConfigError(f"algo `{algo}` is not one of {sorted(ALGOS)}")
     n_envs = int(hp.get("n_envs", 1))
     vec_cls = SubprocVecEnv if hp.get("vec_env") == "subproc" and n_envs > 1 else DummyVecEnv
-    venv = make_vec_env(env_id, n_envs=n_envs, seed=seed, env_kwargs=hp.get("env_kwargs", {}), vec_env_cls=vec_cls)
+    # render_mode=None: SB3 otherwise asks every env for "rgb_array"
+    env_kwargs = {"render_mode": None, **hp.get("env_kwargs", {})}
+    venv = make_vec_env(env_id, n_envs=n_envs, seed=seed, env_kwargs=env_kwargs, vec_env_cls=vec_cls)
     norm_obs, norm_rew = bool(hp.get("normalize_obs", False)), bool(hp.get("normalize_reward", False))
     if norm_obs or norm_rew:
         venv = VecNormalize(venv, norm_obs=norm_obs, norm_reward=norm_rew, gamma=hp["hyperparams"].get("gamma", 0.99))
