@@ -20,8 +20,9 @@ def test_contract(env_id: str) -> None:
 @pytest.mark.parametrize("vector", ["sync", "async"])
 @pytest.mark.parametrize("env_id", IDS)
 def test_vector_envs_of_four_copies_step(env_id: str, vector: str) -> None:
-    cls = gym.vector.SyncVectorEnv if vector == "sync" else gym.vector.AsyncVectorEnv
-    envs = cls([lambda: gym.make(env_id) for _ in range(4)])
+    fns = [lambda: gym.make(f"gym4real:{env_id}") for _ in range(4)]  # a fresh process imports gym4real
+    # spawn, as Ray and other multi-process users do: a fork would inherit this process's renderer and engines
+    envs = gym.vector.SyncVectorEnv(fns) if vector == "sync" else gym.vector.AsyncVectorEnv(fns, context="spawn")
     try:
         obs, _ = envs.reset(seed=42)
         envs.action_space.seed(42)
