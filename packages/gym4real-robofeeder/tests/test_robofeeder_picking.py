@@ -144,7 +144,7 @@ def test_placements_option_and_graspable_yaw(v0) -> None:
 
 
 def test_several_objects_and_termination() -> None:
-    env = gym.make(V0, n_objects=2, max_steps=4)
+    env = gym.make(V0, n_objects=2, max_steps=4, max_episode_steps=4)
     policy = oracle(env)
     obs, _ = env.reset(seed=2)
     done, picked, steps = False, 0, 0

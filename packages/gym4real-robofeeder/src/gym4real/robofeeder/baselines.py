@@ -29,7 +29,7 @@ class OraclePolicy:
     """
 
     def __init__(self, env: gym.Env[Any, Any]) -> None:
-        self.env = env.unwrapped
+        self.env: Any = env.unwrapped
         if not hasattr(self.env, "oracle_action"):
             raise TypeError(f"the oracle needs a RoboFeeder environment, not {type(self.env).__name__}")
 

@@ -25,7 +25,7 @@ FLAT_TILT = 0.35
 class RoboFeederBaseEnv(gym.Env[np.ndarray, Any]):
     """Shared machinery: config, simulator, detector, rendering, seeding, pickling and the oracle."""
 
-    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 2}
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 2}
     config_class: ClassVar[type[RoboFeederConfig]] = PickingConfig
 
     def __init__(self, config: RoboFeederConfig | Mapping[str, Any] | str | Path | None = None, *,
