@@ -164,6 +164,7 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
     """
 
     metadata = {"render_modes": [], "render_fps": 1}
+    reward_component_names = ("trading", "degradation", "clipping")
 
     def __init__(
         self,
