@@ -120,6 +120,18 @@ class RoboFeederBaseEnv(gym.Env[np.ndarray, Any]):
         pixel = self.sim.camera.world_to_pixel(np.array([xy[0], xy[1], self.sim.camera.plane_height()]))
         return ok and self.sim.reachable(pixel)
 
+    def oracle_grasp(self, centre: np.ndarray) -> tuple[np.ndarray, float] | None:
+        """Image point and joint-6 angle grasping the object left nearest the image point ``centre``."""
+        left = [i for i in range(self.sim.n) if not self.sim.picked[i]]
+        if not left:
+            return None
+        centre_xy = self.sim.camera.pixel_to_world(np.asarray(centre, dtype=float))
+        sites = self.sim.site_positions()
+        i = min(left, key=lambda k: float(np.linalg.norm(sites[k, :2] - centre_xy)))
+        xy, theta, _ = self.grasp_yaw_target(i)
+        pixel = self.sim.camera.world_to_pixel(np.array([xy[0], xy[1], self.sim.camera.plane_height()]))
+        return pixel, theta
+
     def nearest_object(self, xy: np.ndarray, sites: np.ndarray | None = None) -> int:
         """Index of the object whose site is nearest to world ``xy`` (picked ones included, as the reference)."""
         sites = self.sim.site_positions() if sites is None else sites
@@ -182,6 +194,7 @@ class RoboFeederPickingEnv(RoboFeederBaseEnv):
     """
 
     config_class = PickingConfig
+    reward_component_names = ("success", "failure", "distance", "rotation", "unfeasible")
 
     def __init__(self, config: PickingConfig | Mapping[str, Any] | str | Path | None = None, *,
                  preset: str | None = None, render_mode: str | None = None, **overrides: Any) -> None:
@@ -247,7 +260,7 @@ class RoboFeederPickingEnv(RoboFeederBaseEnv):
 
     def _reward(self, outcome: PickOutcome, xy: np.ndarray) -> tuple[dict[str, float], dict[str, Any]]:
         scale = 1.0 / self.max_steps
-        comps = {"success": 0.0, "failure": 0.0, "distance": 0.0, "rotation": 0.0, "unfeasible": 0.0}
+        comps = dict.fromkeys(self.reward_component_names, 0.0)
         i = self.nearest_object(xy, outcome.initial_sites)
         distance = float(np.linalg.norm(outcome.initial_sites[i, :2] - xy))
         if self.config.fix("grasp_angle"):
@@ -280,14 +293,10 @@ class RoboFeederPickingEnv(RoboFeederBaseEnv):
     # ------------------------------------------------------------------ oracle
     def oracle_action(self) -> np.ndarray:
         """The action grasping the object nearest the crop centre at its true grasp point and yaw."""
-        centre_xy = self.sim.camera.pixel_to_world(self._centre)
-        candidates = [i for i in range(self.sim.n) if not self.sim.picked[i]]
-        if not candidates:
+        grasp = self.oracle_grasp(self._centre)
+        if grasp is None:
             return np.zeros(3, np.float32)
-        sites = self.sim.site_positions()
-        i = min(candidates, key=lambda k: float(np.linalg.norm(sites[k, :2] - centre_xy)))
-        xy, theta, _ = self.grasp_yaw_target(i)
-        pixel = self.sim.camera.world_to_pixel(np.array([xy[0], xy[1], self.sim.camera.plane_height()]))
+        pixel, theta = grasp
         return np.clip(np.append(self._action_xy(pixel), theta / (np.pi / 2.0) - 1.0), -1.0, 1.0).astype(np.float32)
 
     def _action_xy(self, pixel: np.ndarray) -> np.ndarray:

@@ -67,6 +67,7 @@ class RoboFeederPlanningEnv(RoboFeederBaseEnv):
 
     config_class = PlanningConfig
     config: PlanningConfig
+    reward_component_names = ("picked", "failed", "idle")
 
     def __init__(self, config: PlanningConfig | Mapping[str, Any] | str | Path | None = None, *,
                  preset: str | None = None, render_mode: str | None = None,
@@ -150,14 +151,10 @@ class RoboFeederPlanningEnv(RoboFeederBaseEnv):
         return action
 
     def _oracle_pick(self, slot: int) -> np.ndarray:
-        centre_xy = self.sim.camera.pixel_to_world(self._centres[slot])
-        left = [i for i in range(self.sim.n) if not self.sim.picked[i]]
-        if not left:
+        grasp = self.oracle_grasp(self._centres[slot])
+        if grasp is None:
             return np.zeros(3)
-        sites = self.sim.site_positions()
-        i = min(left, key=lambda k: float(np.linalg.norm(sites[k, :2] - centre_xy)))
-        xy, theta, _ = self.grasp_yaw_target(i)
-        pixel = self.sim.camera.world_to_pixel(np.array([xy[0], xy[1], self.sim.camera.plane_height()]))
+        pixel, theta = grasp
         offset = (pixel - self._centres[slot]) / (self.crop_size / 2.0)
         return np.clip(np.append(offset, theta / (np.pi / 2.0) - 1.0), -1.0, 1.0)
 
@@ -168,7 +165,7 @@ class RoboFeederPlanningEnv(RoboFeederBaseEnv):
         if not valid or not 0 <= int(arr.reshape(-1)[0]) <= self.n_crops:
             raise ValueError(f"action must be an integer in [0, {self.n_crops}], got {action!r}")
         a = int(arr.reshape(-1)[0])
-        comps = {"picked": 0.0, "failed": 0.0, "idle": 0.0}
+        comps = dict.fromkeys(self.reward_component_names, 0.0)
         info: dict[str, Any] = {"success": False, "feasible": True, "cost": 0.0, "target_world": np.zeros(3),
                                 "target_pixel": np.zeros(2), "theta": 0.0, "agent_action": np.zeros(3, np.float32),
                                 "slot": a}
