@@ -6,6 +6,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from gym4real.core.errors import ConfigError, DataFileError
 from gym4real.robofeeder.config import PickingConfig
@@ -94,3 +96,22 @@ def test_onnx_detector_layout(tmp_path: Path) -> None:
     onnx.save(model, str(path))
     dets = OnnxDetector(path).detect(np.zeros((300, 300, 3), np.uint8))
     assert [d.box for d in dets] == [(60, 30, 120, 90)]  # (ymin, xmin, ymax, xmax) -> pixels, low score dropped
+
+
+@settings(max_examples=150, deadline=None)
+@given(x0=st.integers(0, 290), y0=st.integers(0, 290), w=st.integers(2, 80), h=st.integers(2, 80),
+       per_axis=st.booleans())
+def test_crop_is_always_a_valid_patch(x0: int, y0: int, w: int, h: int, per_axis: bool) -> None:
+    frame = np.random.default_rng(x0 + 1000 * y0).integers(0, 256, (300, 300, 3), dtype=np.uint8)
+    box = (x0, y0, min(x0 + w, 300), min(y0 + h, 300))
+    patch, centre = crop(frame, box, per_axis=per_axis)
+    assert patch.shape == (50, 50) and patch.dtype == np.float32
+    assert patch.min() >= 0.0 and patch.max() <= 1.0
+    assert tuple(centre) == ((box[0] + box[2]) / 2, (box[1] + box[3]) / 2)
+    if per_axis and w <= 40 and h <= 40 and 30 <= x0 <= 220 and 30 <= y0 <= 220:
+        # inside the frame, a small box is padded to exactly 50 px around its centre: no resampling
+        dx, dy = round((50 - (box[2] - box[0])) / 2), round((50 - (box[3] - box[1])) / 2)
+        window = frame[box[1] - dy: box[3] + dy, box[0] - dx: box[2] + dx]
+        if window.shape[:2] == (50, 50):
+            np.testing.assert_allclose(patch, window.astype(np.float32) @ np.float32([0.2989, 0.587, 0.114]) / 255,
+                                       atol=1e-6)

@@ -115,6 +115,14 @@ select_backend()
 
 # Only now: MuJoCo fixes its OpenGL backend when first imported. Modules of this package import
 # `mujoco` from here (`from gym4real.robofeeder._gl import mujoco`), never directly.
-import mujoco  # noqa: E402
+try:
+    import mujoco
+except (AttributeError, ImportError, OSError) as _exc:  # e.g. MUJOCO_GL=osmesa without libOSMesa (PyOpenGL fails)
+    _msg = (
+        f"`import mujoco` failed with MUJOCO_GL={os.environ.get('MUJOCO_GL', '')!r} "
+        f"({type(_exc).__name__}: {_exc}). Install that backend's library (`libosmesa6` for osmesa, `libegl1` "
+        "and `libgl1-mesa-dri` for egl) or unset MUJOCO_GL to let gym4real.robofeeder choose one."
+    )
+    raise ImportError(_msg) from _exc
 
 __all__ = ["CHOICE", "backend_error", "context_class", "mujoco", "select_backend"]

@@ -185,7 +185,7 @@ class RoboFeederPickingEnv(RoboFeederBaseEnv):
     (``fixes.grasp_angle``), per-axis crop clamping (``fixes.crop_clamp``), IK at the gripper centre
     with joint 6 held (``fixes.centred_tool``), unfeasible targets (``fixes.unfeasible_targets``),
     graspable spawn yaws as the paper states (``fixes.graspable_spawn``), and the speed options
-    ``fixes.spawn_at_rest`` / ``fixes.settle_until_rest``. Always: a classical detector replaces the
+    ``fixes.spawn_at_rest`` / ``fixes.settle_until_rest`` / ``fixes.sleep``. Always: a classical detector replaces the
     missing SSD network, terminated/truncated are distinct, the action is copied, ``info`` is filled.
 
     ## Version History
