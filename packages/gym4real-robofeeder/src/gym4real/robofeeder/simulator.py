@@ -163,7 +163,7 @@ class Simulator:
             np.array([centre[0], centre[1], BASE_Z + PICK_Z + PRE_PICK_LIFT]), np.zeros(6), fixed_j6=np.pi / 2
         ).q
         self._yaw_cache: dict[tuple[float, float], float] = {}
-        self.footprint_centre = footprint_centre(m)
+        self._footprint: np.ndarray | None = None
         self.renderer = LazyRenderer(m, config.image_size, config.image_size, effects=config.render_effects)
         self.physics_steps = 0
 
@@ -193,7 +193,9 @@ class Simulator:
     def object_centres(self) -> np.ndarray:
         """World centres of the objects' silhouettes seen from above (N x 3, at the body origin's height)."""
         mujoco.mj_kinematics(self.model, self.data)
-        local = self.footprint_centre
+        if self._footprint is None:
+            self._footprint = footprint_centre(self.model)
+        local = self._footprint
         out = []
         for b in self.object_bodies:
             out.append(self.data.xpos[b] + self.data.xmat[b].reshape(3, 3) @ local)
