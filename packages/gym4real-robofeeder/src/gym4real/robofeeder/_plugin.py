@@ -69,26 +69,23 @@ _FLAGS = frozenset({"continuous_states", "visual_input", "hierarchical"})
 def gym4real_register_envs() -> list[EnvSpec]:
     """The two picking environments and the planning environment."""
     info = "gym4real.robofeeder.rendering:engine_info"
+    picking = (
+        (PICKING_V0, "RoboFeederPickingEnv", "grasp a detected hinge from a 50x50 crop (grasp point and yaw)"),
+        (PICKING_V1, "RoboFeederPickingImageEnv", "grasp a hinge from the full 300x300 top-down image"),
+    )
     return [
-        EnvSpec(
-            id=PICKING_V0,
-            entry_point="gym4real.robofeeder.env:RoboFeederPickingEnv",
-            description="MuJoCo robot cell: grasp a detected hinge from a 50x50 crop (continuous grasp point and yaw)",
-            flags=_FLAGS | {"continuous_actions"},
-            presets=("default", "test"),
-            datasets=MODEL_DATASETS,
-            max_episode_steps=2,
-            info_provider=info,
-        ),
-        EnvSpec(
-            id=PICKING_V1,
-            entry_point="gym4real.robofeeder.env:RoboFeederPickingImageEnv",
-            description="MuJoCo robot cell: grasp a hinge from the full 300x300 top-down image",
-            flags=_FLAGS | {"continuous_actions"},
-            presets=("default", "test"),
-            datasets=MODEL_DATASETS,
-            max_episode_steps=2,
-            info_provider=info,
+        *(
+            EnvSpec(
+                id=env_id,
+                entry_point=f"gym4real.robofeeder.env:{cls}",
+                description=f"MuJoCo robot cell: {what}",
+                flags=_FLAGS | {"continuous_actions"},
+                presets=("default", "test"),
+                datasets=MODEL_DATASETS,
+                max_episode_steps=2,
+                info_provider=info,
+            )
+            for env_id, cls, what in picking
         ),
         EnvSpec(
             id=PLANNING_V0,
