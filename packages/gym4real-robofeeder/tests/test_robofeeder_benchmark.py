@@ -4,8 +4,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import pytest
-
 from gym4real.core.benchmark import benchmark
 from gym4real.robofeeder import figures
 from gym4real.robofeeder.evaluation import test_episodes as protocol
@@ -34,8 +32,10 @@ def test_extra_figures(tmp_path: Path) -> None:
     assert len(paths[1].read_text().splitlines()) == 1 + 2 * 2
 
 
-@pytest.mark.parametrize("figure", ["heatmap", "planning"])
-def test_figures_cli_help(figure: str, capsys: pytest.CaptureFixture[str]) -> None:
-    with pytest.raises(SystemExit):
-        figures.main([figure, "--help"])
-    assert "--out" in capsys.readouterr().out
+def test_bench_draws_the_papers_figures(tmp_path: Path) -> None:
+    import gym4real
+
+    gym4real.benchmark("gym4real/robofeeder-planning-v0", ["random"], episodes=1, out=tmp_path)
+    assert (tmp_path / "planning_returns.png").stat().st_size > 0
+    rows = (tmp_path / "planning_returns.csv").read_text().splitlines()
+    assert len(rows) == 1 + 5 * 5  # 1 episode per point, 5 object counts, 5 seeds

@@ -10,12 +10,14 @@ from hypothesis import strategies as st
 from gym4real.robofeeder.env import RoboFeederPickingImageEnv
 
 # spec "Camera model and pixel <-> world mapping" (values of the reference with W = H = 300)
-INV_CAM = np.array([
-    [0.00167428, 0.00175628, -0.51286938, -0.355],
-    [0.00175628, -0.00167428, -0.01225855, 0.37],
-    [0.0, 0.0, 1.0, 0.63],
-    [0.0, 0.0, 0.0, 1.0],
-])
+INV_CAM = np.array(
+    [
+        [0.00167428, 0.00175628, -0.51286938, -0.355],
+        [0.00175628, -0.00167428, -0.01225855, 0.37],
+        [0.0, 0.0, 1.0, 0.63],
+        [0.0, 0.0, 0.0, 1.0],
+    ]
+)
 KNOWN = [
     ((149.5, 149.5), (-0.355, 0.370)),
     ((0.0, 0.0), (-0.13919, 0.37516)),

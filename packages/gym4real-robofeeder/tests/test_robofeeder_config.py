@@ -30,9 +30,14 @@ def test_fixes_follow_fidelity_unless_set() -> None:
 
 @pytest.mark.parametrize(
     ("overrides", "message"),
-    [({"bogus": 1}, "unknown field"), ({"image_size": 10}, "image_size"), ({"crop_size": 400}, "crop_size"),
-     ({"spawn": {"x_range": [0.5, 0.1]}}, "x_range"), ({"render_camera": "nope"}, "render_camera"),
-     ({"controller": {"close_gripper": 0.009, "open_gripper": 0.008}}, "close_gripper")],
+    [
+        ({"bogus": 1}, "unknown field"),
+        ({"image_size": 10}, "image_size"),
+        ({"crop_size": 400}, "crop_size"),
+        ({"spawn": {"x_range": [0.5, 0.1]}}, "x_range"),
+        ({"render_camera": "nope"}, "render_camera"),
+        ({"controller": {"close_gripper": 0.009, "open_gripper": 0.008}}, "close_gripper"),
+    ],
 )
 def test_validation_errors(overrides: dict, message: str) -> None:
     with pytest.raises(ConfigError, match=message):

@@ -82,13 +82,18 @@ def test_onnx_detector_layout(tmp_path: Path) -> None:
     boxes = np.array([[[0.1, 0.2, 0.3, 0.4], [0.5, 0.5, 0.6, 0.7]]], np.float32)
     scores = np.array([[0.9, 0.1]], np.float32)
     graph = helper.make_graph(
-        [helper.make_node("Constant", [], ["detection_boxes"], value=onnx.numpy_helper.from_array(boxes)),
-         helper.make_node("Constant", [], ["detection_scores"], value=onnx.numpy_helper.from_array(scores)),
-         helper.make_node("Identity", ["input_tensor"], ["raw"])],
-        "tfod", [helper.make_tensor_value_info("input_tensor", TensorProto.UINT8, [1, 300, 300, 3])],
-        [helper.make_tensor_value_info("raw", TensorProto.UINT8, [1, 300, 300, 3]),
-         helper.make_tensor_value_info("detection_boxes", TensorProto.FLOAT, [1, 2, 4]),
-         helper.make_tensor_value_info("detection_scores", TensorProto.FLOAT, [1, 2])],
+        [
+            helper.make_node("Constant", [], ["detection_boxes"], value=onnx.numpy_helper.from_array(boxes)),
+            helper.make_node("Constant", [], ["detection_scores"], value=onnx.numpy_helper.from_array(scores)),
+            helper.make_node("Identity", ["input_tensor"], ["raw"]),
+        ],
+        "tfod",
+        [helper.make_tensor_value_info("input_tensor", TensorProto.UINT8, [1, 300, 300, 3])],
+        [
+            helper.make_tensor_value_info("raw", TensorProto.UINT8, [1, 300, 300, 3]),
+            helper.make_tensor_value_info("detection_boxes", TensorProto.FLOAT, [1, 2, 4]),
+            helper.make_tensor_value_info("detection_scores", TensorProto.FLOAT, [1, 2]),
+        ],
     )
     path = tmp_path / "det.onnx"
     model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)])
@@ -99,8 +104,9 @@ def test_onnx_detector_layout(tmp_path: Path) -> None:
 
 
 @settings(max_examples=150, deadline=None)
-@given(x0=st.integers(0, 290), y0=st.integers(0, 290), w=st.integers(2, 80), h=st.integers(2, 80),
-       per_axis=st.booleans())
+@given(
+    x0=st.integers(0, 290), y0=st.integers(0, 290), w=st.integers(2, 80), h=st.integers(2, 80), per_axis=st.booleans()
+)
 def test_crop_is_always_a_valid_patch(x0: int, y0: int, w: int, h: int, per_axis: bool) -> None:
     frame = np.random.default_rng(x0 + 1000 * y0).integers(0, 256, (300, 300, 3), dtype=np.uint8)
     box = (x0, y0, min(x0 + w, 300), min(y0 + h, 300))
@@ -111,7 +117,8 @@ def test_crop_is_always_a_valid_patch(x0: int, y0: int, w: int, h: int, per_axis
     if per_axis and w <= 40 and h <= 40 and 30 <= x0 <= 220 and 30 <= y0 <= 220:
         # inside the frame, a small box is padded to exactly 50 px around its centre: no resampling
         dx, dy = round((50 - (box[2] - box[0])) / 2), round((50 - (box[3] - box[1])) / 2)
-        window = frame[box[1] - dy: box[3] + dy, box[0] - dx: box[2] + dx]
+        window = frame[box[1] - dy : box[3] + dy, box[0] - dx : box[2] + dx]
         if window.shape[:2] == (50, 50):
-            np.testing.assert_allclose(patch, window.astype(np.float32) @ np.float32([0.2989, 0.587, 0.114]) / 255,
-                                       atol=1e-6)
+            np.testing.assert_allclose(
+                patch, window.astype(np.float32) @ np.float32([0.2989, 0.587, 0.114]) / 255, atol=1e-6
+            )

@@ -127,8 +127,19 @@ def test_fixed_baseline_and_info(v0) -> None:
     np.testing.assert_array_equal(policy(obs), np.zeros(3))
     centre = info["crop_centre"]
     _, _, _, _, info = v0.step(policy(obs))
-    for key in ("success", "feasible", "cost", "target_world", "target_pixel", "theta", "distance", "angle_error",
-                "objects_left", "objects_picked", "reward_components"):
+    for key in (
+        "success",
+        "feasible",
+        "cost",
+        "target_world",
+        "target_pixel",
+        "theta",
+        "distance",
+        "angle_error",
+        "objects_left",
+        "objects_picked",
+        "reward_components",
+    ):
         assert key in info
     assert info["theta"] == pytest.approx(np.pi / 2)
     np.testing.assert_allclose(info["target_pixel"], centre)  # (0, 0) is the crop centre

@@ -47,7 +47,7 @@ def test_nothing_is_written(tmp_path: Path) -> None:
 
 def test_generated_objects_xml() -> None:
     xml = scene.objects_xml("<mujoco><worldbody>", 2)
-    assert xml.count("<body name=\"object") == 2 and xml.rstrip().endswith("</mujoco>")
+    assert xml.count('<body name="object') == 2 and xml.rstrip().endswith("</mujoco>")
     with pytest.raises(DataFileError, match="worldbody"):
         scene.objects_xml("<mujoco>", 1)
 

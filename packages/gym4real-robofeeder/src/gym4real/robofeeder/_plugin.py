@@ -129,19 +129,39 @@ def gym4real_register_baselines() -> list[BaselineSpec]:
             spec
             for env_id in (PICKING_V0, PICKING_V1)
             for spec in (
-                BaselineSpec(env_id, "fixed", "gym4real.robofeeder.baselines:fixed",
-                             "the reference baseline: action (0, 0, 0) (crop or image centre, yaw pi/2)"),
-                BaselineSpec(env_id, "oracle", oracle,
-                             "grasps the nearest object at its true grasp point and yaw (reads the simulator)"),
+                BaselineSpec(
+                    env_id,
+                    "fixed",
+                    "gym4real.robofeeder.baselines:fixed",
+                    "the reference baseline: action (0, 0, 0) (crop or image centre, yaw pi/2)",
+                ),
+                BaselineSpec(
+                    env_id,
+                    "oracle",
+                    oracle,
+                    "grasps the nearest object at its true grasp point and yaw (reads the simulator)",
+                ),
             )
         ),
-        BaselineSpec(PICKING_V0, "pretrained", "gym4real.robofeeder.baselines:pretrained",
-                     "the reference's pretrained PPO picking agent (ONNX), its deterministic mean, clipped"),
+        BaselineSpec(
+            PICKING_V0,
+            "pretrained",
+            "gym4real.robofeeder.baselines:pretrained",
+            "the reference's pretrained PPO picking agent (ONNX), its deterministic mean, clipped",
+        ),
         BaselineSpec(PLANNING_V0, "random", "gym4real.core.policies:random_policy", "uniform random crop or idle"),
-        BaselineSpec(PLANNING_V0, "pretrained", "gym4real.robofeeder.baselines:pretrained",
-                     "the reference's pretrained PPO planning agent (ONNX), argmax of its logits"),
-        BaselineSpec(PLANNING_V0, "oracle", oracle,
-                     "picks a crop holding a graspable object, idles when none is left (reads the simulator)"),
+        BaselineSpec(
+            PLANNING_V0,
+            "pretrained",
+            "gym4real.robofeeder.baselines:pretrained",
+            "the reference's pretrained PPO planning agent (ONNX), argmax of its logits",
+        ),
+        BaselineSpec(
+            PLANNING_V0,
+            "oracle",
+            oracle,
+            "picks a crop holding a graspable object, idles when none is left (reads the simulator)",
+        ),
     ]
 
 
@@ -155,6 +175,7 @@ def gym4real_register_benchmarks() -> list[BenchmarkSpec | TrainingSpec]:
             env_kwargs={"preset": "test"},
             policies=("fixed", "oracle"),
             final_info=("objects_picked",),
+            figures="gym4real.robofeeder.figures:bench_heatmap" if env_id == PICKING_V0 else None,
             description="100 seeded episodes (seeds 1000..1099), one object uniformly placed in the spawn area",
         )
         for env_id in (PICKING_V0, PICKING_V1)
@@ -165,6 +186,7 @@ def gym4real_register_benchmarks() -> list[BenchmarkSpec | TrainingSpec]:
         env_kwargs={"preset": "planning_test"},
         policies=("random", "oracle"),
         final_info=("objects_picked",),
+        figures="gym4real.robofeeder.figures:bench_planning",
         description="50 seeded episodes (seeds 1000..1049), three objects",
     )
     trainings = [

@@ -32,8 +32,15 @@ class CameraModel:
     depth: float = REFERENCE_DEPTH
 
     @classmethod
-    def from_pose(cls, position: np.ndarray, rotation: np.ndarray, fovy_deg: float, width: int, height: int,
-                  depth: float = REFERENCE_DEPTH) -> CameraModel:
+    def from_pose(
+        cls,
+        position: np.ndarray,
+        rotation: np.ndarray,
+        fovy_deg: float,
+        width: int,
+        height: int,
+        depth: float = REFERENCE_DEPTH,
+    ) -> CameraModel:
         """Build the model from the camera position, its world rotation matrix (columns = camera axes) and fovy."""
         f = (height / 2.0) / np.tan(np.deg2rad(fovy_deg) / 2.0)
         intrinsics = np.array([[1.0, 0.0, (width - 1) / 2.0], [0.0, 1.0, (height - 1) / 2.0], [0.0, 0.0, 1.0]])

@@ -62,29 +62,44 @@ class FixesSection(_Section):
     """Switches of the reference defects fixed by the corrected mode (null: follow `fidelity`)."""
 
     release_at_place: bool | None = Field(
-        None, description="Defect 5: open the gripper at the place pose, move the placed object to the output tray "
-        "and start the next plan from the arm's actual pose (upstream: held until the next pick, plans from zero).")
+        None,
+        description="Defect 5: open the gripper at the place pose, move the placed object to the output tray "
+        "and start the next plan from the arm's actual pose (upstream: held until the next pick, plans from zero).",
+    )
     grasp_angle: bool | None = Field(
-        None, description="Defect 6: true object yaw vs the planned gripper yaw, modulo pi (upstream: the "
-        "quaternion-order slip with the 2.35 offset; also the planning orientation check).")
+        None,
+        description="Defect 6: true object yaw vs the planned gripper yaw, modulo pi (upstream: the "
+        "quaternion-order slip with the 2.35 offset; also the planning orientation check).",
+    )
     crop_clamp: bool | None = Field(
-        None, description="Defect 9: clamp the crop window per axis (upstream: the mixed dx/dy check).")
+        None, description="Defect 9: clamp the crop window per axis (upstream: the mixed dx/dy check)."
+    )
     centred_tool: bool | None = Field(
-        None, description="IK on the point between the fingers with joint 6 held at the grasp angle (upstream: "
-        "the left-finger origin with a free yaw, joint 6 then overwritten).")
+        None,
+        description="IK on the point between the fingers with joint 6 held at the grasp angle (upstream: "
+        "the left-finger origin with a free yaw, joint 6 then overwritten).",
+    )
     unfeasible_targets: bool | None = Field(
-        None, description="Defect 8: targets outside the reachable window or without an IK solution score -1 "
-        "without moving the robot (upstream: dead code, every target is attempted).")
+        None,
+        description="Defect 8: targets outside the reachable window or without an IK solution score -1 "
+        "without moving the robot (upstream: dead code, every target is attempted).",
+    )
     graspable_spawn: bool | None = Field(
-        None, description="Paper appendix: spawn yaws are redrawn until the object can be grasped with joint 6 in "
-        "[0, pi] (upstream: any yaw of the grid, about half of them cannot be picked).")
+        None,
+        description="Paper appendix: spawn yaws are redrawn until the object can be grasped with joint 6 in "
+        "[0, pi] (upstream: any yaw of the grid, about half of them cannot be picked).",
+    )
     spawn_at_rest: bool | None = Field(
-        None, description="Speed: spawn objects in their resting pose and settle briefly (upstream: drop from "
-        "`spawn.height` and settle `settle_steps`).")
+        None,
+        description="Speed: spawn objects in their resting pose and settle briefly (upstream: drop from "
+        "`spawn.height` and settle `settle_steps`).",
+    )
     settle_until_rest: bool | None = Field(
-        None, description="Speed: stop settling once every object is at rest (upstream: fixed step counts).")
+        None, description="Speed: stop settling once every object is at rest (upstream: fixed step counts)."
+    )
     sleep: bool | None = Field(
-        None, description="Speed: MuJoCo's sleeping of bodies at rest (woken by any contact; upstream: off).")
+        None, description="Speed: MuJoCo's sleeping of bodies at rest (woken by any contact; upstream: off)."
+    )
 
 
 FIX_NAMES: tuple[str, ...] = tuple(FixesSection.model_fields)
@@ -113,7 +128,7 @@ class RoboFeederConfig(EnvConfig):
     detector: str = Field(
         "classical",
         description='Object detector: "classical" (OpenCV threshold + contours), "oracle" (true poses projected '
-        'through the camera) or the path of an ONNX detector with the TF-OD layout.',
+        "through the camera) or the path of an ONNX detector with the TF-OD layout.",
     )
     detector_threshold: int = Field(150, ge=1, le=254, description="Gray level (0-255) above which a pixel is bright.")
     detector_min_area: int = Field(20, ge=1, description="Smallest blob (px) the classical detector keeps.")
@@ -177,7 +192,10 @@ class PlanningConfig(RoboFeederConfig):
         "of another ONNX picking agent with the same input and output layout.",
     )
     agent_mode: Literal["mean", "sample"] | None = Field(
-        None, description="Pretrained agent actions: the deterministic mean, or a sample with its own std drawn "
-        "from the env's RNG; null: mean when corrected, sample when upstream.")
+        None,
+        description="Pretrained agent actions: the deterministic mean, or a sample with its own std drawn "
+        "from the env's RNG; null: mean when corrected, sample when upstream.",
+    )
     clip_agent_actions: bool | None = Field(
-        None, description="Clip the agent's actions to [-1, 1] (the reference does not); null: follow fidelity.")
+        None, description="Clip the agent's actions to [-1, 1] (the reference does not); null: follow fidelity."
+    )

@@ -74,10 +74,17 @@ class ClassicalDetector:
             x, y, w, h, area = (int(v) for v in stats[k])
             if area < self.min_area:
                 continue
-            points = cv2.findNonZero((labels[y: y + h, x: x + w] == k).astype(np.uint8)) + np.array([x, y])
+            points = cv2.findNonZero((labels[y : y + h, x : x + w] == k).astype(np.uint8)) + np.array([x, y])
             _, (sw, sh), angle = cv2.minAreaRect(points.astype(np.float32))
-            out.append(Detection(box=(x, y, x + w, y + h), centre=(float(centroids[k][0]), float(centroids[k][1])),
-                                 angle=float(angle), size=(float(sw), float(sh)), score=float(area)))
+            out.append(
+                Detection(
+                    box=(x, y, x + w, y + h),
+                    centre=(float(centroids[k][0]), float(centroids[k][1])),
+                    angle=float(angle),
+                    size=(float(sw), float(sh)),
+                    score=float(area),
+                )
+            )
         out.sort(key=lambda d: (-d.score, d.centre))
         return out
 
@@ -100,8 +107,12 @@ class OracleDetector:
         out = []
         for u, v in np.asarray(self.truth(), dtype=float).reshape(-1, 2):
             if 0 <= u < w and 0 <= v < h:
-                box = (int(u) - self.half_size, int(v) - self.half_size,
-                       int(u) + self.half_size, int(v) + self.half_size)
+                box = (
+                    int(u) - self.half_size,
+                    int(v) - self.half_size,
+                    int(u) + self.half_size,
+                    int(v) + self.half_size,
+                )
                 out.append(Detection(box=box, centre=(float(u), float(v))))
         return out
 
@@ -123,7 +134,7 @@ class OnnxDetector:
 
         path = Path(path)
         if not path.is_file() or path.stat().st_size == 0:
-            msg = f"ONNX detector `{path}` is missing or empty; pass `detector=\"classical\"` or a valid model"
+            msg = f'ONNX detector `{path}` is missing or empty; pass `detector="classical"` or a valid model'
             raise DataFileError(msg)
         options = ort.SessionOptions()
         options.intra_op_num_threads = 1
@@ -161,11 +172,12 @@ def make_detector(spec: str, threshold: int, min_area: int, truth: Callable[[], 
         return OracleDetector(truth)
     if spec.endswith(".onnx"):
         return OnnxDetector(spec)
-    raise ConfigError(f"unknown `detector` {spec!r}; expected \"classical\", \"oracle\" or the path of a `.onnx` file")
+    raise ConfigError(f'unknown `detector` {spec!r}; expected "classical", "oracle" or the path of a `.onnx` file')
 
 
-def crop(rgb: np.ndarray, box: tuple[int, int, int, int], size: int = 50, *, per_axis: bool = True
-         ) -> tuple[np.ndarray, np.ndarray]:
+def crop(
+    rgb: np.ndarray, box: tuple[int, int, int, int], size: int = 50, *, per_axis: bool = True
+) -> tuple[np.ndarray, np.ndarray]:
     """The reference's crop: a ``size`` window around ``box``, resized (nearest), grayscale in [0, 1].
 
     Args:

@@ -28,8 +28,14 @@ class RoboFeederBaseEnv(gym.Env[np.ndarray, Any]):
     metadata = {"render_modes": ["rgb_array"], "render_fps": 2}
     config_class: ClassVar[type[RoboFeederConfig]] = PickingConfig
 
-    def __init__(self, config: RoboFeederConfig | Mapping[str, Any] | str | Path | None = None, *,
-                 preset: str | None = None, render_mode: str | None = None, **overrides: Any) -> None:
+    def __init__(
+        self,
+        config: RoboFeederConfig | Mapping[str, Any] | str | Path | None = None,
+        *,
+        preset: str | None = None,
+        render_mode: str | None = None,
+        **overrides: Any,
+    ) -> None:
         self._init_args = (config, preset, render_mode, overrides)
         self.config = self.config_class.build(config, preset, **overrides)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -37,8 +43,9 @@ class RoboFeederBaseEnv(gym.Env[np.ndarray, Any]):
             raise ValueError(msg)
         self.render_mode = render_mode
         self.sim = Simulator(self.config)
-        self.detector: Detector = make_detector(self.config.detector, self.config.detector_threshold,
-                                                self.config.detector_min_area, self._true_pixels)
+        self.detector: Detector = make_detector(
+            self.config.detector, self.config.detector_threshold, self.config.detector_min_area, self._true_pixels
+        )
         self.size = self.config.image_size
         self.crop_size = self.config.crop_size
         self.max_steps = self.config.max_steps
@@ -196,8 +203,14 @@ class RoboFeederPickingEnv(RoboFeederBaseEnv):
     config_class = PickingConfig
     reward_component_names = ("success", "failure", "distance", "rotation", "unfeasible")
 
-    def __init__(self, config: PickingConfig | Mapping[str, Any] | str | Path | None = None, *,
-                 preset: str | None = None, render_mode: str | None = None, **overrides: Any) -> None:
+    def __init__(
+        self,
+        config: PickingConfig | Mapping[str, Any] | str | Path | None = None,
+        *,
+        preset: str | None = None,
+        render_mode: str | None = None,
+        **overrides: Any,
+    ) -> None:
         super().__init__(config, preset=preset, render_mode=render_mode, **overrides)
         self.action_space = spaces.Box(-1.0, 1.0, (3,), np.float32)
         self.observation_space = self._observation_space()
@@ -219,8 +232,9 @@ class RoboFeederPickingEnv(RoboFeederBaseEnv):
     def _target_pixel(self, a: np.ndarray) -> np.ndarray:
         return self._centre + a[:2] * (self.crop_size / 2.0)
 
-    def reset(self, *, seed: int | None = None,
-              options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
         """Spawn the objects and observe.
 
         Args:
@@ -238,9 +252,12 @@ class RoboFeederPickingEnv(RoboFeederBaseEnv):
     def _spawn(self, options: dict[str, Any]) -> None:
         placements = options.get("placements")
         yaws = options.get("yaws")
-        self.sim.reset(self.np_random, placements=None if placements is None else np.asarray(placements, float),
-                       yaws=None if yaws is None else np.asarray(yaws, float),
-                       graspable_only=self.config.fix("graspable_spawn"))
+        self.sim.reset(
+            self.np_random,
+            placements=None if placements is None else np.asarray(placements, float),
+            yaws=None if yaws is None else np.asarray(yaws, float),
+            graspable_only=self.config.fix("graspable_spawn"),
+        )
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Attempt one pick at the grasp point and angle of ``action``."""

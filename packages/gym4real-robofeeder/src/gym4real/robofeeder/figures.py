@@ -6,25 +6,23 @@
 * :func:`planning_returns`: mean return of planning policies vs the number of objects in the bin
   (the paper: 50 episodes x 5 seeds per point).
 
-Command line (writes PNG + CSV into ``--out``)::
-
-    python -m gym4real.robofeeder.figures heatmap --out results/robofeeder [--grid 10 --seeds 5]
-        [--policies fixed,oracle]
-    python -m gym4real.robofeeder.figures planning --out results/robofeeder [--objects 1,2,3,4,5]
-        [--episodes 50 --seeds 5]
+``gym4real bench`` draws them through the protocol's figures hooks (:func:`bench_heatmap`,
+:func:`bench_planning`), for the policies it benchmarked; both write a PNG and a CSV.
 """
 
 from __future__ import annotations
 
-import argparse
 import csv
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from gym4real.robofeeder._plugin import PICKING_V0, PLANNING_V0
+
+if TYPE_CHECKING:
+    from gym4real.core.benchmark import BenchmarkResult
 
 
 def _policy(env_id: str, name: str, env: Any) -> Any:
@@ -33,8 +31,9 @@ def _policy(env_id: str, name: str, env: Any) -> Any:
     return make_policy(env_id, name, env)
 
 
-def heatmap_rates(policy: str, grid: int = 10, seeds: int = 5, extent: float = 0.8,
-                  env_kwargs: dict[str, Any] | None = None) -> tuple[np.ndarray, np.ndarray]:
+def heatmap_rates(
+    policy: str, grid: int = 10, seeds: int = 5, extent: float = 0.8, env_kwargs: dict[str, Any] | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Success rate of ``policy`` on picking-v0 per placement of a single object.
 
     Returns:
@@ -76,8 +75,13 @@ def _background(env_kwargs: dict[str, Any] | None = None) -> np.ndarray:
         env.close()
 
 
-def picking_heatmap(out: str | Path, policies: Sequence[str] = ("fixed", "oracle"), grid: int = 10, seeds: int = 5,
-                    env_kwargs: dict[str, Any] | None = None) -> list[Path]:
+def picking_heatmap(
+    out: str | Path,
+    policies: Sequence[str] = ("fixed", "oracle"),
+    grid: int = 10,
+    seeds: int = 5,
+    env_kwargs: dict[str, Any] | None = None,
+) -> list[Path]:
     """Write ``picking_heatmap.png`` (one panel per policy over the camera frame) and ``picking_heatmap.csv``."""
     import matplotlib
 
@@ -111,14 +115,20 @@ def picking_heatmap(out: str | Path, policies: Sequence[str] = ("fixed", "oracle
     return [png, table]
 
 
-def planning_returns(out: str | Path, policies: Sequence[str] = ("random", "oracle"),
-                     objects: Sequence[int] = (1, 2, 3, 4, 5), episodes: int = 50, seeds: int = 5,
-                     env_kwargs: dict[str, Any] | None = None) -> list[Path]:
+def planning_returns(
+    out: str | Path,
+    policies: Sequence[str] = ("random", "oracle"),
+    objects: Sequence[int] = (1, 2, 3, 4, 5),
+    episodes: int = 50,
+    seeds: int = 5,
+    env_kwargs: dict[str, Any] | None = None,
+) -> list[Path]:
     """Write ``planning_returns.png`` (mean return +- 95 % CI vs objects) and ``planning_returns.csv``."""
     import gymnasium as gym
     import matplotlib
 
     import gym4real  # noqa: F401
+    from gym4real.core.benchmark import run_episode
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -134,14 +144,7 @@ def planning_returns(out: str | Path, policies: Sequence[str] = ("random", "orac
                 for seed in range(seeds):
                     for ep in range(episodes):
                         episode_seed = 10_000 * seed + ep
-                        if hasattr(act, "reset"):
-                            act.reset(episode_seed)
-                        obs, _ = env.reset(seed=episode_seed)
-                        total, done = 0.0, False
-                        while not done:
-                            obs, reward, terminated, truncated, _ = env.step(act(obs))
-                            total += float(reward)
-                            done = terminated or truncated
+                        total = float(run_episode(env, act, episode_seed, None)["rewards"].sum())
                         rows.append((name, n, seed, ep, total))
             finally:
                 env.close()
@@ -157,8 +160,11 @@ def planning_returns(out: str | Path, policies: Sequence[str] = ("random", "orac
             highs.append(m + half)
         ax.plot(objects, means, marker="o", label=name)
         ax.fill_between(objects, lows, highs, alpha=0.25)
-    ax.set(xlabel="objects in the bin", ylabel="mean episode return",
-           title=f"{PLANNING_V0}\n{episodes} episodes x {seeds} seeds (95 % CI over seeds)")
+    ax.set(
+        xlabel="objects in the bin",
+        ylabel="mean episode return",
+        title=f"{PLANNING_V0}\n{episodes} episodes x {seeds} seeds (95 % CI over seeds)",
+    )
     ax.set_xticks(list(objects))
     ax.legend()
     fig.tight_layout()
@@ -172,32 +178,23 @@ def planning_returns(out: str | Path, policies: Sequence[str] = ("random", "orac
     return [png, table]
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Command line: ``heatmap`` or ``planning``."""
-    p = argparse.ArgumentParser(prog="python -m gym4real.robofeeder.figures", description=__doc__.splitlines()[0])
-    sub = p.add_subparsers(dest="figure", required=True)
-    h = sub.add_parser("heatmap", help="picking-v0 success rate over the workspace")
-    h.add_argument("--out", required=True)
-    h.add_argument("--policies", default="fixed,oracle")
-    h.add_argument("--grid", type=int, default=10)
-    h.add_argument("--seeds", type=int, default=5)
-    pl = sub.add_parser("planning", help="planning mean return vs number of objects")
-    pl.add_argument("--out", required=True)
-    pl.add_argument("--policies", default="random,oracle")
-    pl.add_argument("--objects", default="1,2,3,4,5")
-    pl.add_argument("--episodes", type=int, default=50)
-    pl.add_argument("--seeds", type=int, default=5)
-    args = p.parse_args(argv)
-    policies = [s for s in args.policies.split(",") if s]
-    if args.figure == "heatmap":
-        paths = picking_heatmap(args.out, policies, args.grid, args.seeds)
-    else:
-        objects = [int(s) for s in args.objects.split(",") if s]
-        paths = planning_returns(args.out, policies, objects, args.episodes, args.seeds)
-    for path in paths:
-        print(path)
-    return 0
+def _named(result: BenchmarkResult) -> list[str]:
+    """The result's policies that can be rebuilt by name (baselines and ``kind:path`` models)."""
+    from gym4real.core.policies import baseline_names
+
+    known = set(baseline_names(result.env_id))
+    return [p for p in result.returns if p in known or ":" in p]
 
 
-if __name__ == "__main__":
-    raise SystemExit(main())
+def bench_heatmap(result: BenchmarkResult, out: str | Path) -> list[Path]:
+    """Benchmark figures hook of picking-v0: the heatmap of the benchmarked policies.
+
+    The paper's 5 orientation seeds per cell on the 100-episode protocol; fewer for shorter benchmarks.
+    """
+    seeds = max(1, min(5, -(-len(result.episodes) // 20)))
+    return picking_heatmap(out, _named(result), seeds=seeds)
+
+
+def bench_planning(result: BenchmarkResult, out: str | Path) -> list[Path]:
+    """Benchmark figures hook of planning: mean return vs objects, as many episodes per point as the benchmark."""
+    return planning_returns(out, _named(result), episodes=min(50, len(result.episodes)))

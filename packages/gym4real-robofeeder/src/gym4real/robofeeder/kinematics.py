@@ -56,8 +56,16 @@ class ArmKinematics:
         rot = self.data.xmat[self.body].reshape(3, 3)
         return self.data.xpos[self.body] + rot @ self.tool_offset, rot.copy()
 
-    def solve(self, target: np.ndarray, seed: np.ndarray, *, fixed_j6: float | None = None,
-              iterations: int = 200, tol: float = 1e-4, damping: float = 1e-3) -> IKResult:
+    def solve(
+        self,
+        target: np.ndarray,
+        seed: np.ndarray,
+        *,
+        fixed_j6: float | None = None,
+        iterations: int = 200,
+        tol: float = 1e-4,
+        damping: float = 1e-3,
+    ) -> IKResult:
         """Joint angles placing the tool point at ``target`` (world) with the tool axis pointing down.
 
         Args:

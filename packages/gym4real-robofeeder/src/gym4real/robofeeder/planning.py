@@ -69,9 +69,15 @@ class RoboFeederPlanningEnv(RoboFeederBaseEnv):
     config: PlanningConfig
     reward_component_names = ("picked", "failed", "idle")
 
-    def __init__(self, config: PlanningConfig | Mapping[str, Any] | str | Path | None = None, *,
-                 preset: str | None = None, render_mode: str | None = None,
-                 picking_policy: PickingPolicy | None = None, **overrides: Any) -> None:
+    def __init__(
+        self,
+        config: PlanningConfig | Mapping[str, Any] | str | Path | None = None,
+        *,
+        preset: str | None = None,
+        render_mode: str | None = None,
+        picking_policy: PickingPolicy | None = None,
+        **overrides: Any,
+    ) -> None:
         super().__init__(config, preset=preset, render_mode=render_mode, **overrides)
         self._init_args = (config, preset, render_mode, {**overrides, "picking_policy": picking_policy})
         cfg = self.config
@@ -112,8 +118,9 @@ class RoboFeederPlanningEnv(RoboFeederBaseEnv):
         self._obs, self._centres, self._filled = crops[order], centres[order], filled[order]
         return self._obs.copy()
 
-    def reset(self, *, seed: int | None = None,
-              options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
         """Spawn the objects and observe.
 
         Args:
@@ -123,9 +130,12 @@ class RoboFeederPlanningEnv(RoboFeederBaseEnv):
         super().reset(seed=seed)
         options = options or {}
         placements, yaws = options.get("placements"), options.get("yaws")
-        self.sim.reset(self.np_random, placements=None if placements is None else np.asarray(placements, float),
-                       yaws=None if yaws is None else np.asarray(yaws, float),
-                       graspable_only=self.config.fix("graspable_spawn"))
+        self.sim.reset(
+            self.np_random,
+            placements=None if placements is None else np.asarray(placements, float),
+            yaws=None if yaws is None else np.asarray(yaws, float),
+            graspable_only=self.config.fix("graspable_spawn"),
+        )
         self._steps = 0
         obs = self._observe()
         return obs, {"objects_left": self.sim.n, "graspable": self.count_graspable()}
@@ -166,9 +176,16 @@ class RoboFeederPlanningEnv(RoboFeederBaseEnv):
             raise ValueError(f"action must be an integer in [0, {self.n_crops}], got {action!r}")
         a = int(arr.reshape(-1)[0])
         comps = dict.fromkeys(self.reward_component_names, 0.0)
-        info: dict[str, Any] = {"success": False, "feasible": True, "cost": 0.0, "target_world": np.zeros(3),
-                                "target_pixel": np.zeros(2), "theta": 0.0, "agent_action": np.zeros(3, np.float32),
-                                "slot": a}
+        info: dict[str, Any] = {
+            "success": False,
+            "feasible": True,
+            "cost": 0.0,
+            "target_world": np.zeros(3),
+            "target_pixel": np.zeros(2),
+            "theta": 0.0,
+            "agent_action": np.zeros(3, np.float32),
+            "slot": a,
+        }
         terminated = False
         if a == 0:
             comps["idle"] = -float(self.count_graspable())
@@ -185,14 +202,24 @@ class RoboFeederPlanningEnv(RoboFeederBaseEnv):
                 theta = (low[2] + 1.0) * np.pi / 2.0
                 outcome = self.sim.pick(self.sim.camera.pixel_to_world(pixel), theta, pixel)
                 comps["picked" if outcome.success else "failed"] = 1.0 if outcome.success else -1.0
-                info.update(success=outcome.success, feasible=outcome.feasible, cost=0.0 if outcome.feasible else 1.0,
-                            target_world=outcome.target.copy(), theta=outcome.theta, target_pixel=pixel,
-                            agent_action=low.astype(np.float32))
+                info.update(
+                    success=outcome.success,
+                    feasible=outcome.feasible,
+                    cost=0.0 if outcome.feasible else 1.0,
+                    target_world=outcome.target.copy(),
+                    theta=outcome.theta,
+                    target_pixel=pixel,
+                    agent_action=low.astype(np.float32),
+                )
             obs = self._observe()
         self._steps += 1
         truncated = bool(self._steps >= self.max_steps and not terminated)
-        info.update(reward_components=comps, objects_picked=int(self.sim.picked.sum()),
-                    objects_left=int((~self.sim.picked).sum()), graspable=self.count_graspable())
+        info.update(
+            reward_components=comps,
+            objects_picked=int(self.sim.picked.sum()),
+            objects_left=int((~self.sim.picked).sum()),
+            graspable=self.count_graspable(),
+        )
         return obs, float(sum(comps.values())), terminated, truncated, info
 
     # ------------------------------------------------------------------ oracle

@@ -68,8 +68,11 @@ class LazyRenderer:
         except Exception as exc:  # the GL libraries raise assorted error types
             raise RenderingError(_gl.backend_error(exc)) from exc
         if not self.effects:
-            for flag in (mujoco.mjtRndFlag.mjRND_SHADOW, mujoco.mjtRndFlag.mjRND_REFLECTION,
-                         mujoco.mjtRndFlag.mjRND_SKYBOX):
+            for flag in (
+                mujoco.mjtRndFlag.mjRND_SHADOW,
+                mujoco.mjtRndFlag.mjRND_REFLECTION,
+                mujoco.mjtRndFlag.mjRND_SKYBOX,
+            ):
                 renderer.scene.flags[flag] = 0
         return renderer
 

@@ -69,5 +69,4 @@ def shaped(distance: float, angle_error: float, reward: RewardSection) -> tuple[
     alpha_d = np.log(2.0) / reward.delta_d**2
     alpha_t = np.log(2.0) / reward.delta_theta**2
     lam = reward.distance_weight
-    return (-1.0, float(lam * np.exp(-alpha_d * distance**2)),
-            float((1.0 - lam) * np.exp(-alpha_t * angle_error**2)))
+    return (-1.0, float(lam * np.exp(-alpha_d * distance**2)), float((1.0 - lam) * np.exp(-alpha_t * angle_error**2)))

@@ -97,8 +97,8 @@ def footprint_centre(model: mujoco.MjModel, resolution: float = 1e-4) -> np.ndar
 
     g = model.geom("obj0").id
     mesh = model.geom_dataid[g]
-    verts = model.mesh_vert[model.mesh_vertadr[mesh]: model.mesh_vertadr[mesh] + model.mesh_vertnum[mesh]]
-    faces = model.mesh_face[model.mesh_faceadr[mesh]: model.mesh_faceadr[mesh] + model.mesh_facenum[mesh]]
+    verts = model.mesh_vert[model.mesh_vertadr[mesh] : model.mesh_vertadr[mesh] + model.mesh_vertnum[mesh]]
+    faces = model.mesh_face[model.mesh_faceadr[mesh] : model.mesh_faceadr[mesh] + model.mesh_facenum[mesh]]
     rot = np.zeros(9)
     mujoco.mju_quat2Mat(rot, model.geom_quat[g])
     body = verts @ rot.reshape(3, 3).T + model.geom_pos[g]
@@ -117,7 +117,7 @@ def _rest_pose(n_objects: int, data_dir: str | None) -> tuple[float, tuple[float
     model = build_model(n_objects, data_dir)
     data = mujoco.MjData(model)
     for i in range(n_objects):
-        data.qpos[7 * i: 7 * i + 7] = [-0.30 - 0.05 * i, 0.40 - 0.05 * i, 0.21, 1.0, 0.0, 0.0, 0.0]
+        data.qpos[7 * i : 7 * i + 7] = [-0.30 - 0.05 * i, 0.40 - 0.05 * i, 0.21, 1.0, 0.0, 0.0, 0.0]
     mujoco.mj_step(model, data, nstep=1200)
     q = data.qpos[3:7].copy()
     yaw = yaw_of(q)
@@ -155,8 +155,11 @@ class Simulator:
         mujoco.mj_forward(m, self.data)
         cam = m.camera("top_down").id
         self.camera = CameraModel.from_pose(
-            self.data.cam_xpos[cam], self.data.cam_xmat[cam].reshape(3, 3), float(m.cam_fovy[cam]),
-            config.image_size, config.image_size,
+            self.data.cam_xpos[cam],
+            self.data.cam_xmat[cam].reshape(3, 3),
+            float(m.cam_fovy[cam]),
+            config.image_size,
+            config.image_size,
         )
         centre = self.camera.pixel_to_world(np.array([(config.image_size - 1) / 2.0] * 2))
         self.home_q = self.kin.solve(
@@ -179,11 +182,11 @@ class Simulator:
 
     def object_positions(self) -> np.ndarray:
         """Body origins of the objects (N x 3, world)."""
-        return np.array([self.data.qpos[a: a + 3] for a in self.object_qadr])
+        return np.array([self.data.qpos[a : a + 3] for a in self.object_qadr])
 
     def object_quats(self) -> np.ndarray:
         """Object quaternions (N x 4, w x y z, as stored)."""
-        return np.array([self.data.qpos[a + 3: a + 7] for a in self.object_qadr])
+        return np.array([self.data.qpos[a + 3 : a + 7] for a in self.object_qadr])
 
     def site_positions(self) -> np.ndarray:
         """World positions of the object grasp sites (N x 3), after kinematics."""
@@ -212,7 +215,7 @@ class Simulator:
         for adr, picked in zip(self.object_dofadr, self.picked, strict=True):
             if picked:
                 continue
-            if np.abs(v[adr: adr + 3]).max() > REST_LINEAR or np.abs(v[adr + 3: adr + 6]).max() > REST_ANGULAR:
+            if np.abs(v[adr : adr + 3]).max() > REST_LINEAR or np.abs(v[adr + 3 : adr + 6]).max() > REST_ANGULAR:
                 return False
         return True
 
@@ -242,8 +245,13 @@ class Simulator:
         msg = f"cannot place {self.n} objects `spawn.min_distance` apart in the spawn area; lower `n_objects`"
         raise ValueError(msg)
 
-    def reset(self, rng: np.random.Generator, placements: np.ndarray | None = None,
-              yaws: np.ndarray | None = None, graspable_only: bool = False) -> None:
+    def reset(
+        self,
+        rng: np.random.Generator,
+        placements: np.ndarray | None = None,
+        yaws: np.ndarray | None = None,
+        graspable_only: bool = False,
+    ) -> None:
         """Reset the cell and spawn the objects.
 
         Args:
@@ -270,7 +278,7 @@ class Simulator:
                     rested = np.zeros(4)
                     mujoco.mju_mulQuat(rested, quat, np.asarray(tilt))
                     quat = rested
-                d.qpos[adr: adr + 7] = [world[i, 0], world[i, 1], rest_z, *quat]
+                d.qpos[adr : adr + 7] = [world[i, 0], world[i, 1], rest_z, *quat]
         mujoco.mj_forward(m, d)
         steps = min(cfg.settle_steps, MIN_SETTLE) if at_rest and cfg.spawn.shuffle else cfg.settle_steps
         self.settle(steps)
@@ -400,8 +408,17 @@ class Simulator:
         target = np.array([xy[0], xy[1], BASE_Z + PICK_Z])
         sites, quats = self.site_positions(), self.object_quats()
         plan, ik_error, yaw, ik_ok = self.plan(np.asarray(xy, dtype=float), theta)
-        outcome = PickOutcome(feasible=True, success=False, picked=None, target=target, theta=theta,
-                              gripper_yaw=yaw, ik_error=ik_error, initial_sites=sites, initial_quats=quats)
+        outcome = PickOutcome(
+            feasible=True,
+            success=False,
+            picked=None,
+            target=target,
+            theta=theta,
+            gripper_yaw=yaw,
+            ik_error=ik_error,
+            initial_sites=sites,
+            initial_quats=quats,
+        )
         if cfg.fix("unfeasible_targets"):
             in_window = pixel is None or self.reachable(pixel)
             if not (in_window and ik_ok):
@@ -430,7 +447,7 @@ class Simulator:
         rest_z, tilt = _rest_pose(self.n, self.config.data_dir)
         for k, (i, adr) in enumerate(zip(np.flatnonzero(self.picked), self.object_qadr[self.picked], strict=True)):
             spot = TRAY + np.array([0.06 * k, 0.0])
-            self.data.qpos[adr: adr + 7] = [spot[0], spot[1], rest_z - PLANE_TOP, *tilt]
+            self.data.qpos[adr : adr + 7] = [spot[0], spot[1], rest_z - PLANE_TOP, *tilt]
             dof = self.object_dofadr[i]
-            self.data.qvel[dof: dof + 6] = 0.0
+            self.data.qvel[dof : dof + 6] = 0.0
         mujoco.mj_forward(self.model, self.data)
