@@ -114,7 +114,7 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
        is the same calendar day; the reference keeps the first 365 values (drops 31 December).
 
     Also corrected in both modes (no change of numbers): float32 bounds (finite, see above; the
-    reference's are infinite float64); ``info["action"]`` is the clipped action (the raw one is in
+    reference's are infinite float64); ``info["action"]`` is the clipped action (the requested one, as a float, is in
     ``info["raw_action"]``; upstream ``info["action"]`` is raw and the reference's ``pure_reward`` and
     ``weighted_reward`` dicts are added); ``evaporation`` reads a real evaporation-rate file (the
     reference crashes) and is rejected without one; data files are resolved and validated; no pygame.
@@ -425,6 +425,7 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
             a = float(arr.reshape(-1)[0])
         if a != a:
             raise ValueError("action is NaN; expected a release in m3/s")
+        self._raw_action = a
         if a < self._a_low or a > self._a_high:
             if self.config.invalid_action == "raise":
                 msg = (
@@ -491,7 +492,7 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
             "storage": storage,
             "release": release,
             "action": action if self._upstream else a,
-            "raw_action": action,
+            "raw_action": self._raw_action,
             "demand": demand,
             "inflow": inflow,
             "exponential_average_demand": ead,

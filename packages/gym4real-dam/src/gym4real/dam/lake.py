@@ -346,6 +346,23 @@ class Lake:
             s = s + dt * (inflow - r - evaporation)
         return s, np_sum(releases) / self.substeps
 
+    def trace(
+        self, storage: float, decision: float, inflow: float, min_flow: float, evaporation: float
+    ) -> list[tuple[float, float]]:
+        """The day sub-step by sub-step, straightforwardly: ``(storage before, release)`` of each sub-step.
+
+        The reference for :meth:`day` (which must return the storage after the last sub-step and
+        ``numpy.mean`` of the releases, bit for bit) and for the mass-balance tests.
+        """
+        out = []
+        s = storage
+        for _ in range(self.substeps):
+            r = self.release(self.storage_to_level(s), decision, min_flow)
+            out.append((s, r))
+            s = s + self.dt * (inflow - r - evaporation)
+        out.append((s, math.nan))
+        return out
+
     # -- reachable levels --------------------------------------------------------------------------
 
     def level_range(self, start: float, max_inflow: float, max_evaporation: float, days: int) -> tuple[float, float]:
