@@ -10,20 +10,22 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
+from gymnasium import spaces
 
 from gym4real.core.policies import ConstantPolicy
+from gym4real.dam.env import DamEnv
 from gym4real.dam.historical import Historical
 
 
 def mean(env: gym.Env[Any, Any]) -> ConstantPolicy:
     """Baseline factory: the middle of the action box, ``(low + high) / 2`` (245.805 m3/s by default)."""
-    space = env.action_space
+    space: spaces.Box = env.action_space  # type: ignore[assignment]
     return ConstantPolicy(((space.low + space.high) / 2).astype(space.dtype))
 
 
 def max_release(env: gym.Env[Any, Any]) -> ConstantPolicy:
     """Baseline factory: the top of the action box (491.61 m3/s by default)."""
-    space = env.action_space
+    space: spaces.Box = env.action_space  # type: ignore[assignment]
     return ConstantPolicy(space.high.copy())
 
 
@@ -36,7 +38,7 @@ class ExponentialAverageDemand:
     """
 
     def __init__(self, env: gym.Env[Any, Any]) -> None:
-        self.env = env.unwrapped
+        self.env: DamEnv = env.unwrapped  # type: ignore[assignment]
 
     def __call__(self, obs: Any) -> np.ndarray:
         """Return the average demand as the release."""

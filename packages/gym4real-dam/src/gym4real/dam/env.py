@@ -127,6 +127,8 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
 
     metadata = {"render_modes": ["ansi"], "render_fps": 4}
     reward_component_names = COMPONENTS
+    action_space: spaces.Box
+    observation_space: spaces.Box
 
     def __init__(
         self,
@@ -163,7 +165,10 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
         )
         self._a_low = float(self.action_space.low[0])
         self._a_high = float(self.action_space.high[0])
-        lows, highs, self._i_level, self._i_ead = [], [], None, None
+        lows: list[float] = []
+        highs: list[float] = []
+        self._i_level: int | None = None
+        self._i_ead: int | None = None
         if "level" in cfg.observations:
             self._i_level = len(lows)
             lows.append(cfg.level_bounds[0])

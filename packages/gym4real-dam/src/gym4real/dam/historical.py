@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 import sys
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import gymnasium as gym
 import numpy as np
@@ -26,6 +26,9 @@ import numpy as np
 from gym4real.core.datasets import resolve
 from gym4real.dam.data import DAYS, YearlyTable, calendar_days, read_yearly
 from gym4real.dam.lake import SECONDS_PER_DAY
+
+if TYPE_CHECKING:
+    from gym4real.dam.env import DamEnv
 
 
 def reconstruct_releases(
@@ -92,7 +95,7 @@ class Historical:
     def __init__(self, env: gym.Env[Any, Any], mode: str = "track") -> None:
         if mode not in ("track", "replay"):
             raise ValueError(f'`mode` must be "track" or "replay", not {mode!r}')
-        self.env = env.unwrapped
+        self.env: DamEnv = env.unwrapped  # type: ignore[assignment]
         self.mode = mode
         cfg = self.env.config
         self.levels = RecordedLevels(cfg.data_dir, self.env._fixes["drop_feb29"])
