@@ -66,3 +66,24 @@ def test_qtable_of_another_env_is_refused(tmp_path: Path) -> None:
 def test_unknown_preset_lists_the_registered_ones() -> None:
     with pytest.raises(gym4real.core.ConfigError, match="qlearning/paper"):
         train("gym4real/elevator-v0", "qlearning", "huge")
+
+
+def test_box_actions_are_learnt_on_minus_one_one_and_mapped_back() -> None:
+    pytest.importorskip("stable_baselines3")
+    import numpy as np
+
+    from gym4real.core.rl.sb3 import NormalizedPolicy, rescaled
+
+    box = gym.spaces.Box(0.0, 491.61, (1,), np.float32)
+    assert rescaled(box) and not rescaled(gym.spaces.Box(-1.0, 1.0, (3,))) and not rescaled(gym.spaces.Discrete(3))
+
+    class Model:
+        def __init__(self, action: float) -> None:
+            self.action = np.array([action], dtype=np.float32)
+
+        def predict(self, obs, deterministic):
+            return self.action, None
+
+    for raw, expected in ((-1.0, 0.0), (0.0, 245.805), (1.0, 491.61), (3.0, 491.61)):
+        action = NormalizedPolicy(Model(raw), None, box)(np.zeros(4))
+        assert box.contains(action) and action[0] == pytest.approx(expected, rel=1e-6)

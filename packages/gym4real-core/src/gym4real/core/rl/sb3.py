@@ -32,12 +32,34 @@ def _sb3() -> Any:
 ALGOS = {"ppo": "PPO", "dqn": "DQN"}
 
 
-class NormalizedPolicy:
-    """A trained SB3 model as a deterministic ``obs -> action`` policy (observations normalised as in training)."""
+def rescaled(space: gym.Space[Any]) -> bool:
+    """Whether training acts in ``[-1, 1]`` instead of ``space``: a bounded Box that is not already so.
 
-    def __init__(self, model: Any, stats: dict[str, Any] | None) -> None:
+    SB3's Gaussian policies start around 0 with unit scale, so they learn on ``[-1, 1]`` actions (the
+    reference's dam PPO wraps its env in ``RescaleAction(-1, 1)`` too); policies map back to the bounds.
+    """
+    return (
+        isinstance(space, gym.spaces.Box)
+        and bool(np.all(np.isfinite(space.low)) and np.all(np.isfinite(space.high)))
+        and not (np.all(space.low == -1) and np.all(space.high == 1))
+    )
+
+
+def _rescale(env: gym.Env[Any, Any]) -> gym.Env[Any, Any]:
+    return gym.wrappers.RescaleAction(env, -1.0, 1.0) if rescaled(env.action_space) else env
+
+
+class NormalizedPolicy:
+    """A trained SB3 model as a deterministic ``obs -> action`` policy.
+
+    Observations are normalised as in training; actions learnt on ``[-1, 1]`` are mapped onto the
+    environment's bounds.
+    """
+
+    def __init__(self, model: Any, stats: dict[str, Any] | None, action_space: gym.Space[Any]) -> None:
         self.model = model
         self.stats = stats
+        self.bounds = (action_space.low, action_space.high) if rescaled(action_space) else None
 
     def _normalize(self, obs: Any) -> Any:
         if self.stats is None:
@@ -52,6 +74,9 @@ class NormalizedPolicy:
     def __call__(self, obs: Any) -> Any:
         """Return the model's deterministic action."""
         action, _ = self.model.predict(self._normalize(obs), deterministic=True)
+        if self.bounds is not None:
+            low, high = self.bounds
+            action = (low + (np.clip(action, -1.0, 1.0) + 1.0) * 0.5 * (high - low)).astype(low.dtype)
         return action
 
 
@@ -74,14 +99,17 @@ def load_policy(env: gym.Env[Any, Any], path: str | Path) -> NormalizedPolicy:
             raise PolicyError(f"`{path}` is not a Stable-Baselines3 model file: {exc}") from exc
     if model is None:
         raise PolicyError(f"`{path}` is not a PPO or DQN model file")
-    if model.observation_space != env.observation_space or model.action_space != env.action_space:
+    expected_actions = env.action_space
+    if rescaled(env.action_space):
+        expected_actions = gym.spaces.Box(-1.0, 1.0, env.action_space.shape, env.action_space.dtype)  # type: ignore[arg-type]
+    if model.observation_space != env.observation_space or model.action_space != expected_actions:
         raise PolicyError(
             f"model `{path}` was trained on observation space {model.observation_space} and action space "
             f"{model.action_space}; this environment has {env.observation_space} and {env.action_space}"
         )
     stats_path = path.with_name("normalize.npz")
     stats = dict(np.load(stats_path, allow_pickle=False)) if stats_path.exists() else None
-    return NormalizedPolicy(model, stats)
+    return NormalizedPolicy(model, stats, env.action_space)
 
 
 def _save_normalization(vec: Any, path: Path) -> None:
@@ -112,7 +140,9 @@ def train_sb3(env_id: str, hp: dict[str, Any], seed: int, out: Path, progress: b
     vec_cls = SubprocVecEnv if hp.get("vec_env") == "subproc" and n_envs > 1 else DummyVecEnv
     # render_mode=None: SB3 otherwise asks every env for "rgb_array"
     env_kwargs = {"render_mode": None, **hp.get("env_kwargs", {})}
-    venv = make_vec_env(env_id, n_envs=n_envs, seed=seed, env_kwargs=env_kwargs, vec_env_cls=vec_cls)
+    venv = make_vec_env(
+        env_id, n_envs=n_envs, seed=seed, env_kwargs=env_kwargs, vec_env_cls=vec_cls, wrapper_class=_rescale
+    )
     norm_obs, norm_rew = bool(hp.get("normalize_obs", False)), bool(hp.get("normalize_reward", False))
     if norm_obs or norm_rew:
         venv = VecNormalize(venv, norm_obs=norm_obs, norm_reward=norm_rew, gamma=hp["hyperparams"].get("gamma", 0.99))
@@ -149,7 +179,7 @@ def train_sb3(env_id: str, hp: dict[str, Any], seed: int, out: Path, progress: b
             if isinstance(venv, VecNormalize) and norm_obs:
                 _save_normalization(venv, out / "normalize.candidate.npz")
                 stats = dict(np.load(out / "normalize.candidate.npz", allow_pickle=False))
-            policy = NormalizedPolicy(self.model, stats)
+            policy = NormalizedPolicy(self.model, stats, eval_env.action_space)
             rets = [
                 float(run_episode(eval_env, policy, seed + 10_000 + i, None)["rewards"].sum())
                 for i in range(eval_episodes)
