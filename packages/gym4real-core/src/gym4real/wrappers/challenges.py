@@ -8,7 +8,7 @@ of a ``Dict``); discrete parts are left as they are.
 from __future__ import annotations
 
 from collections import deque
-from typing import Any
+from typing import Any, SupportsFloat
 
 import gymnasium as gym
 import numpy as np
@@ -47,9 +47,10 @@ class ActionPersistence(gym.Wrapper[Any, Any, Any, Any], gym.utils.RecordConstru
             raise ValueError(f"`k` must be at least 1, not {k}")
         self.k = k
 
-    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+    def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
         """Apply ``action`` for up to ``k`` steps."""
-        total, comps, cost = 0.0, {}, 0.0
+        total, cost = 0.0, 0.0
+        comps: dict[str, float] = {}
         for _ in range(self.k):
             obs, reward, terminated, truncated, info = self.env.step(action)
             total += float(reward)
@@ -75,9 +76,9 @@ class ObservationNoise(_Seeded):
             return obs
         out = dict(obs) if isinstance(obs, dict) else obs
         for key in self.items:
-            space = self.observation_space if key is None else self.observation_space[key]
+            space: Any = self.observation_space if key is None else self.observation_space[key]  # type: ignore[index]
             span = np.where(np.isfinite(space.high - space.low), space.high - space.low, 1.0)
-            value = out if key is None else out[key]
+            value: Any = out if key is None else out[key]
             noisy = value + self.rng.normal(0.0, self.scale * span, size=np.shape(value))
             noisy = np.clip(noisy, space.low, space.high).astype(space.dtype)  # stay in the declared space
             if key is None:
@@ -91,7 +92,7 @@ class ObservationNoise(_Seeded):
         obs, info = super().reset(seed=seed, options=options)
         return self._noisy(obs), info
 
-    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+    def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
         """Step; the observation is noisy."""
         obs, reward, terminated, truncated, info = self.env.step(action)
         return self._noisy(obs), reward, terminated, truncated, info
@@ -113,7 +114,7 @@ class ObservationDelay(gym.Wrapper[Any, Any, Any, Any], gym.utils.RecordConstruc
         self._buffer.extend([obs] * (self.d + 1))
         return obs, info
 
-    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+    def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
         """Step; return the observation of ``d`` steps ago."""
         obs, reward, terminated, truncated, info = self.env.step(action)
         self._buffer.append(obs)
@@ -134,7 +135,7 @@ class ActionDelay(gym.Wrapper[Any, Any, Any, Any], gym.utils.RecordConstructorAr
         self._pending.clear()
         return self.env.reset(seed=seed, options=options)
 
-    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+    def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
         """Queue ``action``; apply the one chosen ``d`` steps ago."""
         if not self._pending:
             self._pending.extend([action] * self.d)
@@ -174,7 +175,7 @@ class SensorDropout(_Seeded):
         obs, info = super().reset(seed=seed, options=options)
         return self._drop(obs, first=True), info
 
-    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+    def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
         """Step; some entries are lost."""
         obs, reward, terminated, truncated, info = self.env.step(action)
         return self._drop(obs, first=False), reward, terminated, truncated, info

@@ -81,11 +81,13 @@ class ElevatorVectorEnv(VectorEnv[dict[str, Any], np.ndarray, np.ndarray]):
         cfg, f, s = self.config, self.config.floors, self.single
         table = np.empty_like(self._arrivals)
         position = np.empty(self.num_envs, dtype=np.int64)
-        root = self.np_random if seed is None else None
+        seeds = (
+            [seed + i for i in range(self.num_envs)]
+            if seed is not None
+            else self.np_random.integers(2**31, size=self.num_envs).tolist()
+        )
         for i in range(self.num_envs):
-            rng = (
-                seeding.np_random(seed + i)[0] if seed is not None else seeding.np_random(int(root.integers(2**31)))[0]
-            )
+            rng = seeding.np_random(int(seeds[i]))[0]
             rates = arrivals.draw_rates(rng, len(self._served), f.lambda_min, f.lambda_max)
             table[i, :-1] = arrivals.corrected_arrivals(rng, rates, cfg.duration, f.max_arrivals)
             table[i, -1] = 0

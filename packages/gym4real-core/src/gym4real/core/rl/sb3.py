@@ -46,7 +46,7 @@ def rescaled(space: gym.Space[Any]) -> bool:
 
 
 def _rescale(env: gym.Env[Any, Any]) -> gym.Env[Any, Any]:
-    return gym.wrappers.RescaleAction(env, -1.0, 1.0) if rescaled(env.action_space) else env
+    return gym.wrappers.RescaleAction(env, np.float32(-1.0), np.float32(1.0)) if rescaled(env.action_space) else env
 
 
 class NormalizedPolicy:
@@ -59,7 +59,9 @@ class NormalizedPolicy:
     def __init__(self, model: Any, stats: dict[str, Any] | None, action_space: gym.Space[Any]) -> None:
         self.model = model
         self.stats = stats
-        self.bounds = (action_space.low, action_space.high) if rescaled(action_space) else None
+        self.bounds = None
+        if isinstance(action_space, gym.spaces.Box) and rescaled(action_space):
+            self.bounds = (action_space.low, action_space.high)
 
     def _normalize(self, obs: Any) -> Any:
         if self.stats is None:
