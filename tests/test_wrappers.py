@@ -130,3 +130,35 @@ def test_multi_objective_ids_for_the_papers_morl_envs() -> None:
         if mo_id in gym.registry:
             env = gym.make(mo_id)
             assert env.unwrapped.reward_space.shape == (len(env.unwrapped.components),)
+
+
+def _perturbable_ids() -> list[str]:
+    out = []
+    for env_id in IDS:
+        env = gym.make(env_id)
+        if getattr(env.unwrapped, "perturbable", ()):
+            out.append(env_id)
+        env.close()
+    return out
+
+
+@pytest.mark.parametrize("env_id", _perturbable_ids())
+def test_exogenous_perturbation_is_drawn_per_episode_and_seeded(env_id: str) -> None:
+    from gym4real.wrappers import ExogenousPerturbation
+
+    a = ExogenousPerturbation(gym.make(env_id), 0.1)
+    b = ExogenousPerturbation(gym.make(env_id), 0.1)
+    _, ia = a.reset(seed=5)
+    _, ib = b.reset(seed=5)
+    assert ia["perturbation"] == ib["perturbation"]
+    assert set(ia["perturbation"]) == set(a.unwrapped.perturbable)
+    assert all(0.9 <= v <= 1.1 for v in ia["perturbation"].values())
+    _, ia2 = a.reset()
+    assert ia2["perturbation"] != ia["perturbation"]
+
+
+def test_perturbation_needs_a_perturbable_env() -> None:
+    from gym4real.wrappers import ExogenousPerturbation
+
+    with pytest.raises(ValueError, match="perturbable"):
+        ExogenousPerturbation(gym.make("gym4real/elevator-v0"), 0.1)

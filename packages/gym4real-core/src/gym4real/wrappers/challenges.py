@@ -1,5 +1,8 @@
 """Real-world challenge layers for every environment, with presets ``easy``, ``medium`` and ``hard``.
 
+Action persistence, observation noise and delay, action delay and sensor dropout apply to every env;
+exogenous perturbation of the domain's parameters to the envs that declare ``perturbable`` ones.
+
 Each layer draws its randomness from the wrapper's ``np_random``, seeded from ``reset(seed=)``, so a
 challenged env stays reproducible. Observation layers act on ``Box`` observations (or the ``Box`` items
 of a ``Dict``); discrete parts are left as they are.
@@ -181,6 +184,33 @@ class SensorDropout(_Seeded):
         return self._drop(obs, first=False), reward, terminated, truncated, info
 
 
+class ExogenousPerturbation(_Seeded):
+    """Domain parameters drawn anew each episode: ``scale = 1 + strength * U(-1, 1)`` per parameter.
+
+    The parameters are those the env lists in ``perturbable`` (dam lake surface, microgrid battery
+    capacity and prices, wds pump curves and demand, trading price shocks and fees); the env applies
+    them through its ``perturb(scales)`` before the reset. ``info["perturbation"]`` holds the scales.
+    """
+
+    def __init__(self, env: gym.Env[Any, Any], strength: float) -> None:
+        super().__init__(env, strength=strength)
+        names = getattr(env.unwrapped, "perturbable", ())
+        if not names:
+            raise ValueError(f"{env.unwrapped.__class__.__name__} declares no `perturbable` parameters")
+        if not 0 <= strength < 1:
+            raise ValueError(f"`strength` must be in [0, 1), not {strength}")
+        self.names, self.strength = tuple(names), strength
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
+        """Draw and apply this episode's parameters, then reset."""
+        if seed is not None:
+            self.rng = np.random.default_rng([seed, 7919])
+        scales = {n: float(1 + self.strength * self.rng.uniform(-1, 1)) for n in self.names}
+        self.env.unwrapped.perturb(scales)  # type: ignore[attr-defined]
+        obs, info = self.env.reset(seed=seed, options=options)
+        return obs, {**info, "perturbation": scales}
+
+
 def _unbounded(space: spaces.Space[Any], items: list[str | None]) -> spaces.Space[Any]:
     def box(s: spaces.Box) -> spaces.Box:
         return spaces.Box(-np.inf, np.inf, shape=s.shape, dtype=np.float64)
@@ -193,9 +223,16 @@ def _unbounded(space: spaces.Space[Any], items: list[str | None]) -> spaces.Spac
 
 #: Preset strengths of the challenge layers.
 LEVELS: dict[str, dict[str, float]] = {
-    "easy": {"persistence": 1, "noise": 0.01, "obs_delay": 0, "action_delay": 0, "dropout": 0.0},
-    "medium": {"persistence": 2, "noise": 0.03, "obs_delay": 1, "action_delay": 0, "dropout": 0.01},
-    "hard": {"persistence": 4, "noise": 0.1, "obs_delay": 2, "action_delay": 1, "dropout": 0.05},
+    "easy": {"persistence": 1, "noise": 0.01, "obs_delay": 0, "action_delay": 0, "dropout": 0.0, "perturbation": 0.02},
+    "medium": {
+        "persistence": 2,
+        "noise": 0.03,
+        "obs_delay": 1,
+        "action_delay": 0,
+        "dropout": 0.01,
+        "perturbation": 0.05,
+    },
+    "hard": {"persistence": 4, "noise": 0.1, "obs_delay": 2, "action_delay": 1, "dropout": 0.05, "perturbation": 0.1},
 }
 
 
@@ -206,7 +243,7 @@ def challenge(env: gym.Env[Any, Any], level: str = "medium", **overrides: float)
         env: Any Gym4ReaL environment.
         level: Preset name.
         **overrides: Replace preset values (``persistence``, ``noise``, ``obs_delay``, ``action_delay``,
-            ``dropout``).
+            ``dropout``, ``perturbation``; the last applies to envs that declare ``perturbable`` parameters).
     """
     if level not in LEVELS:
         raise ValueError(f"unknown challenge level `{level}`; expected one of {sorted(LEVELS)}")
@@ -214,6 +251,8 @@ def challenge(env: gym.Env[Any, Any], level: str = "medium", **overrides: float)
     if unknown:
         raise ValueError(f"unknown challenge settings {sorted(unknown)}; expected {sorted(LEVELS[level])}")
     cfg = {**LEVELS[level], **overrides}
+    if cfg["perturbation"] and getattr(env.unwrapped, "perturbable", ()):
+        env = ExogenousPerturbation(env, float(cfg["perturbation"]))
     if cfg["action_delay"]:
         env = ActionDelay(env, int(cfg["action_delay"]))
     if cfg["persistence"] > 1:
