@@ -251,7 +251,8 @@ def challenge(env: gym.Env[Any, Any], level: str = "medium", **overrides: float)
     if unknown:
         raise ValueError(f"unknown challenge settings {sorted(unknown)}; expected {sorted(LEVELS[level])}")
     cfg = {**LEVELS[level], **overrides}
-    if cfg["perturbation"] and getattr(env.unwrapped, "perturbable", ()):
+    perturbable: tuple[str, ...] = tuple(getattr(env.unwrapped, "perturbable", ()))
+    if cfg["perturbation"] and perturbable:
         env = ExogenousPerturbation(env, float(cfg["perturbation"]))
     if cfg["action_delay"]:
         env = ActionDelay(env, int(cfg["action_delay"]))
