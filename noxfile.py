@@ -91,10 +91,14 @@ def bench(session: nox.Session) -> None:
 
 @nox.session
 def docs(session: nox.Session) -> None:
-    """The docs site: one generated page per env (with `results/<env>` bench figures when present)."""
+    """The docs site: one generated page per env with its `gym4real bench` figures (short benchmarks)."""
     session.install(*(_editable(d).removesuffix("[rl,mo,offline]") for d in PACKAGES), "mkdocs-material>=9.5")
-    figures = ["--figures", "results"] if (ROOT / "results").is_dir() else []
-    session.run("python", "docs/gen_pages.py", *figures, env=ENV)
+    figures = ROOT / "results" / "docs"
+    ids = session.run("python", "-c", "import gym4real; print(*gym4real.list_envs())", silent=True, env=ENV)
+    for env_id in str(ids).split():
+        out = figures / env_id.replace("/", "_")
+        session.run("gym4real", "bench", env_id, "--episodes", "3", "--out", str(out), "--quiet", env=ENV)
+    session.run("python", "docs/gen_pages.py", "--figures", str(figures), env=ENV)
     session.run("mkdocs", "build", "--strict", env=ENV)
 
 
