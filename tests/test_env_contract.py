@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import gym4real
+from gym4real.core.policies import baseline_names, make_policy
 from gym4real.core.testing import check_contract
 
 IDS = gym4real.list_envs()
@@ -34,3 +35,21 @@ def test_vector_envs_of_four_copies_step(env_id: str, vector: str) -> None:
         )
     finally:
         envs.close()
+
+
+@pytest.mark.parametrize(
+    ("env_id", "baseline"), [(e, b) for e in IDS for b in baseline_names(e)], ids=lambda v: str(v)
+)
+def test_every_baseline_acts_inside_the_action_space(env_id: str, baseline: str) -> None:
+    env = gym.make(env_id, render_mode=None)
+    try:
+        policy = make_policy(env_id, baseline, env)
+        obs, _ = env.reset(seed=3)
+        for _ in range(5):
+            action = policy(obs)
+            assert env.action_space.contains(action), f"{baseline} gave {action!r} outside {env.action_space}"
+            obs, _, terminated, truncated, _ = env.step(action)
+            if terminated or truncated:
+                break
+    finally:
+        env.close()

@@ -38,6 +38,12 @@ def rss_kib() -> int:
     raise AssertionError("no VmRSS")
 
 
+@pytest.fixture(autouse=True)
+def private_tempdir(tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Give each test its own temp folder, so files of tests running in parallel never count."""
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path_factory.mktemp("tempdir")))
+
+
 def leftover_tmp() -> set[str]:
     return {p.name for p in Path(tempfile.gettempdir()).glob("gym4real-wds-*")}
 

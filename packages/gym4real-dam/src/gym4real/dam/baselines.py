@@ -42,7 +42,7 @@ class ExponentialAverageDemand:
 
     def __call__(self, obs: Any) -> np.ndarray:
         """Return the average demand as the release."""
-        return np.array([self.env.exponential_average_demand])
+        return np.array([self.env.exponential_average_demand], dtype=self.env.action_space.dtype)
 
 
 def ead(env: gym.Env[Any, Any]) -> ExponentialAverageDemand:

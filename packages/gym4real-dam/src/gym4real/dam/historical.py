@@ -101,6 +101,7 @@ class Historical:
         self.levels = RecordedLevels(cfg.data_dir, self.env._fixes["drop_feb29"])
         self.low = float(self.env.action_space.low[0])
         self.high = float(self.env.action_space.high[0])
+        self.dtype = self.env.action_space.dtype
 
     def release(self) -> float:
         """The unclipped historical release of the env's current day (m3/s)."""
@@ -118,7 +119,7 @@ class Historical:
 
     def __call__(self, obs: Any) -> np.ndarray:
         """Return the historical release, clipped into the action box."""
-        return np.array([min(max(self.release(), self.low), self.high)])
+        return np.array([min(max(self.release(), self.low), self.high)], dtype=self.dtype)
 
 
 def reconstruction_report(
