@@ -37,9 +37,7 @@ def test_vector_envs_of_four_copies_step(env_id: str, vector: str) -> None:
         envs.close()
 
 
-@pytest.mark.parametrize(
-    ("env_id", "baseline"), [(e, b) for e in IDS for b in baseline_names(e)], ids=lambda v: str(v)
-)
+@pytest.mark.parametrize(("env_id", "baseline"), [(e, b) for e in IDS for b in baseline_names(e)], ids=lambda v: str(v))
 def test_every_baseline_acts_inside_the_action_space(env_id: str, baseline: str) -> None:
     env = gym.make(env_id, render_mode=None)
     try:
