@@ -9,10 +9,11 @@ import pandas as pd
 import pytest
 
 import gym4real
-from gym4real.core.errors import PolicyError
+from gym4real.core.errors import ConfigError, PolicyError
 from gym4real.core.policies import make_policy
 from gym4real.core.registry import registry
-from gym4real.core.rl.train import train
+from gym4real.core.rl.presets import load_preset
+from gym4real.core.rl.train import default_out, train
 
 SMOKE = sorted((e, a) for (e, a, p) in registry().trainings if p == "smoke" and e in gym4real.list_envs())
 
@@ -87,3 +88,55 @@ def test_box_actions_are_learnt_on_minus_one_one_and_mapped_back() -> None:
     for raw, expected in ((-1.0, 0.0), (0.0, 245.805), (1.0, 491.61), (3.0, 491.61)):
         action = NormalizedPolicy(Model(raw), None, box)(np.zeros(4))
         assert box.contains(action) and action[0] == pytest.approx(expected, rel=1e-6)
+
+
+def test_every_registered_preset_is_valid() -> None:
+    for env_id, algo, preset in registry().trainings:
+        hp = load_preset(env_id, algo, preset)
+        assert hp["algo"] == algo and hp["eval_env_kwargs"] is not None
+
+
+ELEVATOR_SMOKE = """
+algo: qlearning
+episodes: 4
+alpha: 0.1
+gamma: 1.0
+epsilon: {start: 1.0, decay: 0.9, min: 0.05}
+eval_every: 2
+eval_episodes: 1
+patience: 5
+env_kwargs: {duration: 300}
+"""
+
+
+def test_a_users_yaml_file_is_a_preset(tmp_path: Path) -> None:
+    path = tmp_path / "mine.yml"
+    path.write_text(ELEVATOR_SMOKE)
+    run = train("gym4real/elevator-v0", "qlearning", str(path), seed=1, out=tmp_path / "run")
+    assert run.model_path.exists()
+    assert load_preset("gym4real/elevator-v0", "qlearning", str(path))["eval_env_kwargs"] == {"duration": 300}
+    assert default_out("gym4real/elevator-v0", "qlearning", str(path), 1).name == "qlearning-mine-seed1"
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (("episodes: 4", "episodes: 4\nepisode: 3"), "unknown field `episode`"),
+        (("gamma: 1.0", "gamma: 1.5"), r"field `gamma`: Input should be less than or equal to 1"),
+        (("algo: qlearning", "algo: sarsa"), "says algo `sarsa`"),
+    ],
+)
+def test_a_bad_preset_file_names_the_file_and_the_field(tmp_path: Path, edit: tuple[str, str], message: str) -> None:
+    path = tmp_path / "bad.yaml"
+    path.write_text(ELEVATOR_SMOKE.replace(*edit))
+    with pytest.raises(ConfigError, match=message) as err:
+        load_preset("gym4real/elevator-v0", "qlearning", str(path))
+    assert str(path) in str(err.value)
+
+
+def test_an_unknown_sb3_hyperparameter_is_named(tmp_path: Path) -> None:
+    pytest.importorskip("stable_baselines3")
+    path = tmp_path / "ppo.yaml"
+    path.write_text("algo: ppo\ntotal_timesteps: 64\nhyperparams: {n_steps: 32, lr: 0.1}\n")
+    with pytest.raises(ConfigError, match=r"unknown field `hyperparams.lr` for PPO; expected some of .*learning_rate"):
+        train("gym4real/elevator-v0", "ppo", str(path), out=tmp_path / "run")

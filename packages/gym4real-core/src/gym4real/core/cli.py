@@ -155,10 +155,10 @@ def _parser() -> argparse.ArgumentParser:
     data.add_argument("--years", nargs="+", type=int, help="years to download from a domain's own source (trading)")
     data.set_defaults(run=_cmd_data)
 
-    train = sub.add_parser("train", help="train an RL agent with a registered preset")
+    train = sub.add_parser("train", help="train an RL agent with a registered preset or a YAML preset file")
     train.add_argument("env_id")
     train.add_argument("--algo", required=True)
-    train.add_argument("--preset", default="paper")
+    train.add_argument("--preset", default="paper", help="registered preset (paper, smoke) or a YAML file")
     train.add_argument("--seed", type=int, default=0)
     train.add_argument("--out", default=None)
     train.add_argument("--quiet", action="store_true")

@@ -45,7 +45,8 @@ def merge(base: Mapping[str, Any], update: Mapping[str, Any]) -> dict[str, Any]:
     return out
 
 
-def _describe(err: ValidationError, model: str) -> str:
+def describe_validation_error(err: ValidationError, model: str) -> str:
+    """One line per pydantic error, each naming the field: unknown fields and wrong values alike."""
     lines = []
     for e in err.errors():
         where = ".".join(str(p) for p in e["loc"]) or "(root)"
@@ -125,4 +126,4 @@ class EnvConfig(BaseModel):
         try:
             return cls.model_validate(data)
         except ValidationError as exc:
-            raise ConfigError(_describe(exc, cls.__name__)) from None
+            raise ConfigError(describe_validation_error(exc, cls.__name__)) from None

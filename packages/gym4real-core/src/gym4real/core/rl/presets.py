@@ -1,31 +1,118 @@
-"""Training presets: YAML files beside each domain, registered as ``TrainingSpec`` records."""
+"""Training presets, validated by :class:`SB3Preset` or :class:`TabularPreset`.
+
+A preset is a YAML file beside a domain, registered as a ``TrainingSpec`` record, or a user's own file.
+"""
 
 from __future__ import annotations
 
 from importlib import resources
-from typing import Any
+from pathlib import Path
+from typing import Annotated, Any, Literal
 
-from gym4real.core.config import read_yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from gym4real.core.config import describe_validation_error, read_yaml
 from gym4real.core.errors import ConfigError
 from gym4real.core.registry import env_spec, registry
 
 ALGOS = ("ppo", "dqn", "qlearning", "sarsa")
 
+Positive = Annotated[int, Field(gt=0)]
+Fraction = Annotated[float, Field(ge=0, le=1)]
+
+
+class _Preset(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    env_kwargs: dict[str, Any] = Field(default_factory=dict, description="Arguments of the training env.")
+    eval_env_kwargs: dict[str, Any] | None = Field(
+        None, description="Arguments of the validation env (default: `env_kwargs`)."
+    )
+    eval_episodes: Positive = Field(5, description="Episodes of each evaluation (consecutive seeds).")
+
+    @model_validator(mode="after")
+    def _eval_env_defaults_to_training_env(self) -> _Preset:
+        if self.eval_env_kwargs is None:
+            self.eval_env_kwargs = dict(self.env_kwargs)
+        return self
+
+
+class SB3Preset(_Preset):
+    """PPO or DQN from Stable-Baselines3; ``hyperparams`` go to the algorithm's constructor."""
+
+    algo: Literal["ppo", "dqn"]
+    total_timesteps: Positive
+    n_envs: Positive = 1
+    vec_env: Literal["dummy", "subproc"] = Field("dummy", description="SB3 vector env of the `n_envs` copies.")
+    normalize_obs: bool = False
+    normalize_reward: bool = False
+    policy: str = "MlpPolicy"
+    policy_kwargs: dict[str, Any] | None = None
+    hyperparams: dict[str, Any] = Field(default_factory=dict)
+    eval_freq: Positive = Field(10_000, description="Timesteps between evaluations.")
+
+
+class Epsilon(BaseModel):
+    """Epsilon-greedy exploration: ``start``, multiplied by ``decay`` after each episode, floored at ``min``."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    start: Fraction
+    decay: Annotated[float, Field(gt=0, le=1)]
+    min: Fraction
+
+
+class TabularPreset(_Preset):
+    """Q-learning or SARSA on the env's discrete observation grid."""
+
+    algo: Literal["qlearning", "sarsa"]
+    episodes: Positive
+    alpha: Annotated[float, Field(gt=0, le=1)]
+    gamma: Fraction
+    epsilon: Epsilon
+    eval_every: Positive = Field(description="Episodes between evaluations.")
+    patience: Positive = Field(description="Evaluations without an improvement before stopping.")
+    min_improvement: Annotated[float, Field(ge=0)] = 0.0
+
+
+def is_preset_file(preset: str) -> bool:
+    """Whether ``preset`` names a YAML file rather than a registered preset."""
+    return preset.endswith((".yaml", ".yml"))
+
 
 def load_preset(env_id: str, algo: str, preset: str) -> dict[str, Any]:
-    """Return the hyperparameters of a registered training preset.
+    """Return the validated settings of a training preset, every field filled in.
+
+    Args:
+        env_id: A registered id.
+        algo: ``ppo``, ``dqn``, ``qlearning`` or ``sarsa``.
+        preset: A registered preset name (``paper``, ``smoke``) or the path of a YAML file with the
+            fields of :class:`SB3Preset` or :class:`TabularPreset`.
 
     Raises:
-        ConfigError: No such preset; the message lists the registered ones.
+        ConfigError: No such preset (the message lists the registered ones), an unreadable file, or a
+            field that is unknown or out of range (named in the message).
     """
     env_spec(env_id)
-    trainings = registry().trainings
-    spec = trainings.get((env_id, algo, preset))
-    if spec is None:
-        known = sorted(f"{a}/{p}" for (e, a, p) in trainings if e == env_id)
-        raise ConfigError(f"no training preset `{algo}/{preset}` for `{env_id}`; registered: {known}")
-    package, _, path = spec.resource.partition(":")
-    data = read_yaml(resources.files(package) / path, "training preset")
-    if data.get("algo", algo) != algo:
-        raise ConfigError(f"training preset `{spec.resource}` says algo `{data['algo']}`, registered as `{algo}`")
-    return {**data, "algo": algo}
+    if algo not in ALGOS:
+        raise ConfigError(f"algo `{algo}` is not one of {list(ALGOS)}")
+    if is_preset_file(preset):
+        source: Path | resources.abc.Traversable = Path(preset)
+    else:
+        trainings = registry().trainings
+        spec = trainings.get((env_id, algo, preset))
+        if spec is None:
+            known = sorted(f"{a}/{p}" for (e, a, p) in trainings if e == env_id)
+            raise ConfigError(
+                f"no training preset `{algo}/{preset}` for `{env_id}`; registered: {known}, or the path of a YAML file"
+            )
+        package, _, path = spec.resource.partition(":")
+        source = resources.files(package) / path
+    data = read_yaml(source, "training preset")
+    if data.setdefault("algo", algo) != algo:
+        raise ConfigError(f"training preset `{source}` says algo `{data['algo']}`, but `{algo}` was asked for")
+    schema = SB3Preset if algo in ("ppo", "dqn") else TabularPreset
+    try:
+        return schema.model_validate(data).model_dump()
+    except ValidationError as exc:
+        raise ConfigError(f"training preset `{source}`: {describe_validation_error(exc, schema.__name__)}") from None

@@ -6,6 +6,7 @@ statistics when the preset normalises observations; numpy, not pickle) and the l
 
 from __future__ import annotations
 
+import inspect
 from pathlib import Path
 from typing import Any
 
@@ -43,6 +44,19 @@ def rescaled(space: gym.Space[Any]) -> bool:
         and bool(np.all(np.isfinite(space.low)) and np.all(np.isfinite(space.high)))
         and not (np.all(space.low == -1) and np.all(space.high == 1))
     )
+
+
+#: Constructor arguments the trainer sets itself, not through ``hyperparams``.
+_SET_BY_TRAINER = {"self", "policy", "env", "policy_kwargs", "seed", "device", "verbose", "_init_setup_model"}
+
+
+def _check_hyperparams(algo_cls: Any, hyperparams: dict[str, Any]) -> None:
+    accepted = set(inspect.signature(algo_cls.__init__).parameters) - _SET_BY_TRAINER
+    unknown = sorted(set(hyperparams) - accepted)
+    if unknown:
+        raise ConfigError(
+            f"unknown field `hyperparams.{unknown[0]}` for {algo_cls.__name__}; expected some of {sorted(accepted)}"
+        )
 
 
 def _rescale(env: gym.Env[Any, Any]) -> gym.Env[Any, Any]:
@@ -148,7 +162,9 @@ def train_sb3(env_id: str, hp: dict[str, Any], seed: int, out: Path, progress: b
     norm_obs, norm_rew = bool(hp.get("normalize_obs", False)), bool(hp.get("normalize_reward", False))
     if norm_obs or norm_rew:
         venv = VecNormalize(venv, norm_obs=norm_obs, norm_reward=norm_rew, gamma=hp["hyperparams"].get("gamma", 0.99))
-    model = getattr(sb3, ALGOS[algo])(
+    algo_cls = getattr(sb3, ALGOS[algo])
+    _check_hyperparams(algo_cls, hp["hyperparams"])
+    model = algo_cls(
         hp.get("policy", "MlpPolicy"),
         venv,
         policy_kwargs=hp.get("policy_kwargs"),

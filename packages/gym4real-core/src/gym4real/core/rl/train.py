@@ -7,8 +7,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from gym4real.core.errors import ConfigError
-from gym4real.core.rl.presets import ALGOS, load_preset
+from gym4real.core.rl.presets import is_preset_file, load_preset
 
 
 @dataclass(frozen=True)
@@ -30,7 +29,8 @@ class TrainingRun:
 
 def default_out(env_id: str, algo: str, preset: str, seed: int) -> Path:
     """``runs/<env>/<algo>-<preset>-seed<S>``."""
-    return Path("runs") / env_id.replace("/", "_") / f"{algo}-{preset}-seed{seed}"
+    name = Path(preset).stem if is_preset_file(preset) else preset
+    return Path("runs") / env_id.replace("/", "_") / f"{algo}-{name}-seed{seed}"
 
 
 def train(
@@ -41,13 +41,11 @@ def train(
     Args:
         env_id: A registered id.
         algo: ``ppo``, ``dqn`` (Stable-Baselines3), ``qlearning`` or ``sarsa`` (tabular).
-        preset: Training preset name (``paper``, ``smoke``).
+        preset: Training preset name (``paper``, ``smoke``) or the path of a YAML preset file.
         seed: Seed of the run.
         out: Output folder (default ``runs/<env>/<algo>-<preset>-seed<S>``).
         progress: Show a progress bar.
     """
-    if algo not in ALGOS:
-        raise ConfigError(f"`--algo {algo}` is not one of {list(ALGOS)}")
     hp = load_preset(env_id, algo, preset)
     folder = Path(out) if out else default_out(env_id, algo, preset, seed)
     folder.mkdir(parents=True, exist_ok=True)
