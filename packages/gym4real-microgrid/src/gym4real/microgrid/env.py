@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
+import numbers
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -124,6 +126,10 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
     ``train`` or ``test``; overrides are config fields (``fidelity="upstream"``, ``decision_interval=4``,
     ``reward={"normalize": False}``, ``fixes={"capacity_fade": False}``, ...).
 
+    Perturbable parameters (:meth:`perturb`, used by :class:`gym4real.wrappers.ExogenousPerturbation`):
+    ``battery_capacity`` (the nominal capacity in Ah), ``energy_price`` (the ask and bid series),
+    ``demand`` (the load profiles) and ``generation`` (the PV series), in both fidelity modes.
+
     ## Corrected mode and ``fidelity="upstream"``
     The default mode fixes the reference's defects (numbers refer to the spec); each fix is a switch in
     ``fixes`` (null follows ``fidelity``), and ``fidelity="upstream"`` turns them all off:
@@ -165,6 +171,7 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
 
     metadata = {"render_modes": [], "render_fps": 1}
     reward_component_names = ("trading", "degradation", "clipping")
+    perturbable = ("battery_capacity", "energy_price", "demand", "generation")
 
     def __init__(
         self,
@@ -187,6 +194,8 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
         self.battery_params = _battery(cfg.data_dir, files)
         options = TwinOptions.for_fidelity(cfg.fidelity, **{k: getattr(cfg.fixes, k) for k in TWIN_FIXES})
         self.battery = BatteryTwin(self.battery_params, options, eol_soh=b.eol_soh)
+        self._scales: dict[str, float] = dict.fromkeys(self.perturbable, 1.0)
+        self._pending_scales = self._scales
 
         w = self.world
         labels = w.labels
@@ -220,7 +229,8 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
         self._legacy_rng = np.random.RandomState(cfg.upstream_seed)
         self._cursor = 0
         self._profile = labels[0]
-        self._demand = w.profile(self._profile)
+        self._apply_scales()
+        self._demand = self._profile_series(self._profile)
         self._start(1, self.battery_params.init_soc, self.battery_params.init_soh, None)
 
     def _load_world(self) -> World:
@@ -242,6 +252,59 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
                     raise DataFileError(msg) from exc
                 raise
         return _world(tuple(paths), d.timestep, d.temp_timestep)  # type: ignore[arg-type]
+
+    # -- exogenous perturbation ----------------------------------------------------------------------
+
+    def perturb(self, scales: Mapping[str, float]) -> None:
+        """Scale domain parameters from their nominal values, from the next :meth:`reset` on.
+
+        Args:
+            scales: Multipliers of the nominal values, by name (those of :attr:`perturbable`; a missing
+                name is 1.0): ``battery_capacity`` scales the pack's nominal capacity (Ah) in coulomb
+                counting and the SoC limits; ``energy_price`` the ask and bid series (observed and
+                traded; the reward's normaliser stays the nominal data's); ``demand`` and ``generation``
+                the load profiles and the PV series. Scales never compound: each call replaces the
+                previous one, and ``perturb({})`` restores the nominal model exactly.
+
+        Raises:
+            ValueError: An unknown name, or a scale that is not a finite positive number.
+        """
+        new = dict.fromkeys(self.perturbable, 1.0)
+        for name, value in scales.items():
+            if name not in new:
+                msg = f"unknown perturbation parameter {name!r}; expected some of {list(self.perturbable)}"
+                raise ValueError(msg)
+            if isinstance(value, bool) or not isinstance(value, numbers.Real) or not 0.0 < value < math.inf:
+                msg = f"perturbation scale of {name!r} must be a finite positive number, not {value!r}"
+                raise ValueError(msg)
+            new[name] = float(value)
+        self._pending_scales = new
+
+    @property
+    def scales(self) -> dict[str, float]:
+        """The perturbation scales of the current episode's model (1.0: nominal)."""
+        return dict(self._scales)
+
+    def _apply_scales(self) -> None:
+        """Bring the scaled series and battery into use (at a reset); 1.0 keeps the nominal objects."""
+        self._scales = scales = self._pending_scales
+        w = self.world
+        price, gen = scales["energy_price"], scales["generation"]
+        self._ask = w.ask if price == 1.0 else [v * price for v in w.ask]
+        self._bid = w.bid if price == 1.0 else [v * price for v in w.bid]
+        self._pv = w.pv if gen == 1.0 else [v * gen for v in w.pv]
+        params = self.battery_params
+        capacity = scales["battery_capacity"]
+        if capacity != 1.0:
+            params = dataclasses.replace(params, nominal_capacity=params.nominal_capacity * capacity)
+        if self.battery.params is not params:
+            self.battery = BatteryTwin(params, self.battery.options, eol_soh=self.battery.eol_soh)
+
+    def _profile_series(self, label: str) -> list[float]:
+        """The demand profile ``label`` (W per row), scaled by the ``demand`` perturbation."""
+        series = self.world.profile(label)
+        factor = self._scales["demand"]
+        return series if factor == 1.0 else [v * factor for v in series]
 
     # -- episode start -------------------------------------------------------------------------------
 
@@ -306,7 +369,8 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
                 draws = {k: float(self.np_random.uniform(*p.bounds()[k])) for k in ("soc", "soh", "temperature")}
             soc, soh, temperature = draws["soc"], draws["soh"], draws["temperature"]
         self._profile = profile
-        self._demand = self.world.profile(profile)
+        self._apply_scales()
+        self._demand = self._profile_series(profile)
         self._start(row, soc, soh, temperature)
         if rng is not None and cfg.random_battery_init:
             self.battery.voltage = draws["voltage"]
@@ -325,7 +389,7 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
     # -- observation ---------------------------------------------------------------------------------
 
     def _obs(self) -> np.ndarray:
-        w, bat = self.world, self.battery
+        bat = self.battery
         row = self._row
         now = row % self._hour_mod
         prev = (row - 1) % self._hour_mod
@@ -334,7 +398,14 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
         tau = row * self._step_s
         year = TWO_PI * tau / SECONDS_PER_YEAR
         day = TWO_PI * tau / SECONDS_PER_DAY
-        values = [temp, bat.soc, self._demand[(row - 1) % self._n_demand], w.pv[prev], w.ask[now], w.bid[now]]
+        values = [
+            temp,
+            bat.soc,
+            self._demand[(row - 1) % self._n_demand],
+            self._pv[prev],
+            self._ask[now],
+            self._bid[now],
+        ]
         if self.config.observe_soh:
             values.insert(3, min(max(bat.soh, 0.0), 1.0))
         values += [math.sin(year), math.cos(year), math.sin(day), math.cos(day)]
@@ -361,7 +432,7 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
         w, bat = self.world, self.battery
         dt = self._step_s
         hours = self._hours_per_step
-        demand_series, pv, ask, bid = self._demand, w.pv, w.ask, w.bid
+        demand_series, pv, ask, bid = self._demand, self._pv, self._ask, self._bid
         temp_series, temp_step = w.temp, w.temp_step
         hour_mod, day_mod, n_demand = self._hour_mod, self._day_mod, self._n_demand
         shift = 0 if self._aligned else 1
