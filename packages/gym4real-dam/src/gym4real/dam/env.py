@@ -20,6 +20,7 @@ from gym4real.dam.data import calendar_days, read_daily_column, read_yearly
 from gym4real.dam.lake import SECONDS_PER_DAY, Lake, deficit_weight
 
 COMPONENTS = ("deficit", "overflow", "starving", "wasted_water", "clipping")
+PERTURBABLE = ("lake_surface", "inflow")
 _RESET_OPTIONS = ("year", "rewind_profiles", "init_level")
 _F32 = np.float32
 
@@ -52,6 +53,7 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
     environmental flow, then the rating curve ``C_r (l - alpha)^beta`` above l_max = 1.25 m; the upper
     bound linear ``k l + c`` up to l_lim = -0.4 m, then the rating curve) and the storage follows the mass
     balance ``dS = dt (inflow - release - evaporation)`` with the constant surface 145.9 km2.
+    The lake surface and the inflow can be scaled through :meth:`perturb` (see Arguments).
 
     ## Action Space
     ``Box(0.0, 491.61, (1,), float32)``: the target release in m3/s (bounds from ``action``). An action
@@ -93,6 +95,9 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
     ``gymnasium.make("gym4real/dam-v0", config=None, preset=None, render_mode=None, **overrides)``:
     presets ``default``/``train`` (52 training years, random), ``test`` (13 test years, in order),
     ``validation`` (13 training years, in order); overrides are :class:`DamConfig` fields.
+    Perturbable parameters (``perturbable``, set with :meth:`perturb`, e.g. by
+    ``gym4real.wrappers.ExogenousPerturbation``): ``lake_surface`` (the surface of the mass balance, and
+    with it the evaporated volume) and ``inflow`` (every day's inflow), in both fidelity modes.
 
     ## Corrected mode and ``fidelity="upstream"``
     The default mode fixes the reference's defects; ``fidelity="upstream"`` reproduces the reference
@@ -127,6 +132,7 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
 
     metadata = {"render_modes": ["ansi"], "render_fps": 4}
     reward_component_names = COMPONENTS
+    perturbable: tuple[str, ...] = PERTURBABLE
     action_space: spaces.Box
     observation_space: spaces.Box
 
@@ -145,18 +151,9 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
         self._upstream = cfg.fidelity == "upstream"
         self._fixes = fixes = cfg.resolved_fixes()
         lk = cfg.lake
-        self.lake = Lake(
-            lk.surface,
-            lk.min_level,
-            lk.max_level,
-            lk.alpha,
-            lk.beta,
-            lk.C_r,
-            lk.linear_slope,
-            lk.linear_intercept,
-            lk.linear_limit,
-            cfg.integration,
-        )
+        self._scales = dict.fromkeys(PERTURBABLE, 1.0)  # of the current model
+        self._pending = dict(self._scales)  # from the next reset
+        self.lake = self._make_lake(lk.surface)
         self._load_data()
 
         # spaces (float32 bounds; the clipping uses the float32 values, as the reference does)
@@ -236,13 +233,11 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
             msg = f"demand file `{paths['demand']}` and inflow file `{paths['inflow']}` differ in years {extra}"
             raise DataFileError(msg)
         self._mef = read_daily_column(resolve("dam/mef", cfg.data_dir), "minimum environmental flow", "MEF")
-        area = cfg.lake.surface
+        self._evaporation_rates: tuple[float, ...] | None = None
         if cfg.lake.evaporation:
             assert cfg.lake.evaporation_rates is not None  # the config validator ensures it
-            rates = read_daily_column(Path(cfg.lake.evaporation_rates), "evaporation rate")
-            self._evaporation = [rate / 1000 * area / SECONDS_PER_DAY for rate in rates]
-        else:
-            self._evaporation = [0.0] * 365
+            self._evaporation_rates = read_daily_column(Path(cfg.lake.evaporation_rates), "evaporation rate")
+        self._evaporation = self._evaporation_flows(cfg.lake.surface)
         self._levels_table = None
         if cfg.recorded_level:
             self._levels_table = read_yearly(resolve(f"dam/level/{cfg.split}", cfg.data_dir), "level")
@@ -253,6 +248,27 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
             raise ConfigError(msg)
         self._years = tuple(years)
 
+    def _make_lake(self, surface: float) -> Lake:
+        cfg, lk = self.config, self.config.lake
+        return Lake(
+            surface,
+            lk.min_level,
+            lk.max_level,
+            lk.alpha,
+            lk.beta,
+            lk.C_r,
+            lk.linear_slope,
+            lk.linear_intercept,
+            lk.linear_limit,
+            cfg.integration,
+        )
+
+    def _evaporation_flows(self, area: float) -> list[float]:
+        """Daily evaporation (m3/s) of a lake of this surface (m2): the rate (mm/day) times the surface."""
+        if self._evaporation_rates is None:
+            return [0.0] * 365
+        return [rate / 1000 * area / SECONDS_PER_DAY for rate in self._evaporation_rates]
+
     def _episode(self, year: int) -> Episode:
         """The precomputed series of a year (cached)."""
         ep = self._episodes.get(year)
@@ -262,6 +278,8 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
         drop = fixes["drop_feb29"]
         demand = calendar_days(self._demand, year, drop)
         inflow = calendar_days(self._inflow, year, drop)
+        if self._scales["inflow"] != 1.0:
+            inflow = [q * self._scales["inflow"] for q in inflow]
         days = tuple((cfg.doy - 1 + t) % cfg.period for t in range(cfg.sim_horizon))
         recorded = None
         if self._levels_table is not None and year in self._levels_table.values:
@@ -286,10 +304,16 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
         )
         return ep
 
-    def _check_level_bounds(self, start: float) -> None:
+    def _check_level_bounds(
+        self, start: float, lake: Lake | None = None, scales: Mapping[str, float] | None = None
+    ) -> None:
+        """Check the levels reachable from ``start`` against ``level_bounds`` (default: the current model)."""
         cfg = self.config
+        lake = lake or self.lake
+        scales = scales or self._scales
+        evaporation = max(self._evaporation_flows(lake.surface))
         try:
-            low, high = self.lake.level_range(start, cfg.max_inflow, max(self._evaporation), cfg.sim_horizon)
+            low, high = lake.level_range(start, cfg.max_inflow * scales["inflow"], evaporation, cfg.sim_horizon)
         except ValueError as exc:
             raise ConfigError(str(exc)) from None
         if low < cfg.level_bounds[0] or high > cfg.level_bounds[1]:
@@ -298,6 +322,60 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
                 f"{list(cfg.level_bounds)}; widen `level_bounds` (or lower `max_inflow`)"
             )
             raise ConfigError(msg)
+
+    # -- perturbation ------------------------------------------------------------------------------
+
+    def perturb(self, scales: Mapping[str, float]) -> None:
+        """Scale domain parameters from the next :meth:`reset` on, until the next call.
+
+        The scales multiply the nominal values of the configuration (they never compound: each call
+        replaces the previous scales, and a name left out is nominal, so ``perturb({})`` or all 1.0
+        restores the nominal model exactly).
+
+        Args:
+            scales: Multipliers by name: ``lake_surface`` scales the surface ``lake.surface`` of the mass
+                balance ``dh = dt (inflow - release - evaporation) / A`` (the evaporated volume, a rate
+                in mm/day times the surface, scales with it); ``inflow`` scales every day's inflow.
+
+        Raises:
+            ValueError: A name other than those of ``perturbable``; a scale that is not a finite positive
+                number; scales under which the lake could leave ``level_bounds`` in an episode.
+        """
+        unknown = sorted(set(scales) - set(PERTURBABLE))
+        if unknown:
+            raise ValueError(f"unknown perturbation parameters {unknown}; expected some of {list(PERTURBABLE)}")
+        new = dict.fromkeys(PERTURBABLE, 1.0)
+        for name, value in scales.items():
+            try:
+                scale = float(value)
+            except (TypeError, ValueError):
+                scale = math.nan
+            if not (math.isfinite(scale) and scale > 0):
+                raise ValueError(f"perturbation scale of `{name}` must be a finite number > 0, not {value!r}")
+            new[name] = scale
+        lake = self._make_lake(self.config.lake.surface * new["lake_surface"])
+        try:
+            self._check_level_bounds(self.config.lake.init_level, lake, new)
+        except ConfigError as exc:
+            raise ValueError(f"perturbation {new}: {exc}") from None
+        self._pending = new
+
+    def _apply_perturbation(self) -> None:
+        """Make the pending scales the current model (the episode series are recomputed lazily)."""
+        if self._pending == self._scales:
+            return
+        self._scales = self._pending
+        self.lake = self._make_lake(self.config.lake.surface * self._scales["lake_surface"])
+        self._day = self.lake.day
+        self._area = self.lake.surface
+        self._evaporation = self._evaporation_flows(self._area)
+        self._episodes.clear()
+        self._episode_rows.clear()
+
+    @property
+    def scales(self) -> dict[str, float]:
+        """The perturbation scales of the current model (1.0: nominal)."""
+        return dict(self._scales)
 
     # -- state -------------------------------------------------------------------------------------
 
@@ -371,6 +449,7 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
         unknown = sorted(set(options) - set(_RESET_OPTIONS))
         if unknown:
             raise ValueError(f"unknown reset options {unknown}; expected some of {list(_RESET_OPTIONS)}")
+        self._apply_perturbation()
         year = self._select_year(seed, options)
         level = self.config.lake.init_level
         if options.get("init_level") is not None:
