@@ -40,7 +40,7 @@ PUMP = 2
 ELEVATION, DEMAND, HEAD, PRESSURE = 0, 9, 10, 11
 TANKLEVEL, TANKDIAM, MINVOLUME, VOLCURVE, MINLEVEL, MAXLEVEL, TANKVOLUME, MAXVOLUME = 8, 17, 18, 19, 20, 21, 24, 25
 DEMANDFLOW, FULLDEMAND = 31, 32
-INITSTATUS, FLOW, STATUS = 4, 8, 11
+INITSTATUS, FLOW, STATUS, PUMP_POWER = 4, 8, 11, 18
 DURATION, HYDSTEP, PATTERNSTEP, PATTERNSTART, REPORTSTEP = 0, 1, 3, 4, 5
 DDA, PDA = 0, 1
 CONST_HP = 0
@@ -135,6 +135,7 @@ class _CtypesToolkit:
         "EN_getheadcurveindex": (_P, _I, _pI),
         "EN_getcurvelen": (_P, _I, _pI),
         "EN_getcurvevalue": (_P, _I, _I, _pD, _pD),
+        "EN_setcurvevalue": (_P, _I, _I, _D, _D),
         "EN_openH": (_P,),
         "EN_initH": (_P, _I),
         "EN_runH": (_P, _pL),
@@ -314,6 +315,9 @@ class _CtypesToolkit:
     def getcurvevalue(self, ph: Any, curve: int, k: int) -> list[float]:
         self._check(self._lib.EN_getcurvevalue(ph, curve, k, ctypes.byref(self._d1), ctypes.byref(self._d2)))
         return [self._d1.value, self._d2.value]
+
+    def setcurvevalue(self, ph: Any, curve: int, k: int, x: float, y: float) -> None:
+        self._check(self._lib.EN_setcurvevalue(ph, curve, k, x, y))
 
     # hydraulics
     def openH(self, ph: Any) -> None:
