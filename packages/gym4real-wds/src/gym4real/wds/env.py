@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import numbers
 import operator
 import weakref
 from collections.abc import Mapping
@@ -80,7 +81,9 @@ class WDSEnv(gym.Env[np.ndarray, np.int64]):
     cumulative DSR - OVF). Overrides are :class:`~gym4real.wds.config.WDSConfig` fields. Reset options:
     ``profile_index`` (test profile), ``is_evaluation`` (a random test profile), ``pattern`` (your own
     multipliers, within the profiles' range). ``render_mode``: ``ansi`` (a text line) or ``rgb_array``
-    (tank gauges and pump lamps).
+    (tank gauges and pump lamps). Perturbable parameters (:meth:`perturb`, both modes): ``pump_curve``
+    (the head of every pump's head curve) and ``demand`` (the episode's demand multipliers); pressures
+    and demand estimates they push past the observation bounds are clipped like any other value.
 
     ## Corrected mode and ``fidelity="upstream"``
     The default fixes the reference's defects; ``fidelity="upstream"`` restores them (``fixes.*`` switch
@@ -120,6 +123,7 @@ class WDSEnv(gym.Env[np.ndarray, np.int64]):
 
     metadata = {"render_modes": ["ansi", "rgb_array"], "render_fps": 4}
     reward_component_names = ("dsr", "overflow")
+    perturbable: tuple[str, ...] = ("pump_curve", "demand")
 
     def __init__(
         self,
@@ -241,6 +245,8 @@ class WDSEnv(gym.Env[np.ndarray, np.int64]):
         rules = net.rules_from_file or tuple(PumpRule(r.pump, r.tank, r.low, r.high) for r in self.config.default_rule)
         self.pump_rules: tuple[PumpRule, ...] = rules
         self.pump_rules_source = "network [CONTROLS]" if net.rules_from_file else "config `default_rule`"
+        self._head_curves, self._pump_powers = self._nominal_pumps()
+        self._scales = dict.fromkeys(self.perturbable, 1.0)
 
         self._legacy_rng = np.random.RandomState(cfg.seed)
         self._estimate: np.ndarray | None = None
@@ -253,14 +259,65 @@ class WDSEnv(gym.Env[np.ndarray, np.int64]):
         self._levels = net.tank_min_level.copy()
         self._last_info: dict[str, Any] = {}
 
+    def _nominal_pumps(self) -> tuple[dict[int, list[tuple[float, float]]], dict[int, float]]:
+        """The file's head curve points of the pumps (once per curve), the power of constant-power pumps."""
+        tk, ph = self._engine.tk, self._engine.ph
+        curves: dict[int, list[tuple[float, float]]] = {}
+        powers: dict[int, float] = {}
+        for link in self.network.pump_index:
+            if tk.getpumptype(ph, link) == en.CONST_HP:
+                powers[link] = float(tk.getlinkvalue(ph, link, en.PUMP_POWER))
+                continue
+            curve = int(tk.getheadcurveindex(ph, link))
+            if curve > 0 and curve not in curves:
+                points = (tk.getcurvevalue(ph, curve, k) for k in range(1, tk.getcurvelen(ph, curve) + 1))
+                curves[curve] = [(float(x), float(y)) for x, y in points]
+        return curves, powers
+
     # -- pickling: rebuild the engine from the config ------------------------------------------------
 
     def __getstate__(self) -> dict[str, Any]:
-        return {"config": self.config, "render_mode": self.render_mode, "spec": self.spec}
+        return {"config": self.config, "render_mode": self.render_mode, "spec": self.spec, "scales": self._scales}
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__init__(state["config"], render_mode=state["render_mode"])  # type: ignore[misc]
         self.spec = state["spec"]
+        self.perturb(state["scales"])
+
+    # -- exogenous perturbation ----------------------------------------------------------------------
+
+    def perturb(self, scales: Mapping[str, float]) -> None:
+        """Scale domain parameters from the next ``reset()`` on, until the next call.
+
+        Scales multiply the network file's (nominal) values, never the current ones: a call replaces the
+        previous one, and ``perturb({})`` restores the nominal network.
+
+        Args:
+            scales: Multipliers by name (missing names are 1). ``pump_curve`` multiplies the head of every
+                point of every pump's head curve (for a constant-power pump, whose head is power / flow,
+                its power); ``demand`` multiplies the episode's demand multipliers, so the junctions'
+                demands, the DSR reference and the observation's demand estimate.
+
+        Raises:
+            ValueError: A name not in ``perturbable``, or a scale that is not a finite positive number.
+        """
+        unknown = sorted(set(scales) - set(self.perturbable))
+        if unknown:
+            raise ValueError(f"unknown perturbation parameters {unknown}; expected some of {list(self.perturbable)}")
+        new = dict.fromkeys(self.perturbable, 1.0)
+        for name, value in scales.items():
+            if isinstance(value, bool) or not isinstance(value, numbers.Real) or not 0 < value < math.inf:
+                raise ValueError(f"perturbation scale `{name}` must be a finite number > 0, not {value!r}")
+            new[name] = float(value)
+        self._scales = new
+
+    def _apply_pump_scale(self) -> None:
+        tk, ph, s = self._engine.tk, self._engine.ph, self._scales["pump_curve"]
+        for curve, points in self._head_curves.items():
+            for k, (x, y) in enumerate(points, start=1):
+                tk.setcurvevalue(ph, curve, k, x, y * s)
+        for link, power in self._pump_powers.items():
+            tk.setlinkvalue(ph, link, en.PUMP_POWER, power * s)
 
     # -- demand --------------------------------------------------------------------------------------
 
@@ -309,6 +366,7 @@ class WDSEnv(gym.Env[np.ndarray, np.int64]):
         if self._upstream and seed is not None:
             self._legacy_rng = np.random.RandomState(seed)
         pattern, self._profile = self._draw(options or {})
+        pattern = pattern * self._scales["demand"]
         self._pattern = pattern
         self._engine.set_pattern(self._pattern_index, pattern)
         cfg = self.config
@@ -321,6 +379,7 @@ class WDSEnv(gym.Env[np.ndarray, np.int64]):
             for node, level in zip(self._tank_nodes, self.network.tank_initial_level, strict=True):
                 tk.setnodevalue(ph, node, en.TANKLEVEL, float(level))
             self._tanks_moved = False
+        self._apply_pump_scale()
         self._engine.init_hydraulics()
         self._t = 0
         self._done = False
