@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import datetime as dt
+import math
+import numbers
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -71,6 +73,10 @@ class TradingEnv(gym.Env[np.ndarray, Any]):
     ``config`` is a :class:`TradingConfig`, a mapping or a YAML path; ``preset`` one of ``default``,
     ``train``, ``validation``, ``test``, ``paper_train``, ``paper_validation``, ``paper_test``,
     ``paper_benchmark``; overrides are config fields (``fidelity="upstream"``, ``split="test"``, ...).
+    Perturbable parameters (:meth:`perturb`, both modes): ``price_shock`` (the day's price moves around
+    its opening price, for P&L and observation alike) and ``fees``. The batched
+    :class:`~gym4real.trading.vector.TradingVectorEnv` has no ``perturb`` and always trades the nominal
+    prices and fee.
 
     ## Corrected mode and ``fidelity="upstream"``
     The default mode fixes the reference's defects; ``fidelity="upstream"`` restores those that change
@@ -104,6 +110,7 @@ class TradingEnv(gym.Env[np.ndarray, Any]):
     metadata: dict[str, Any] = {"render_modes": ["ansi", "rgb_array"], "render_fps": 4}
     #: Keys of ``info["reward_components"]``, in order (their sum is the reward).
     reward_component_names = ("pnl", "fees")
+    perturbable: tuple[str, ...] = ("price_shock", "fees")
 
     def __init__(
         self,
@@ -133,7 +140,9 @@ class TradingEnv(gym.Env[np.ndarray, Any]):
             final_row = (self.n_steps + 1) * p
         self._obs_rows = np.r_[np.arange(self.n_steps) * p, final_row]
         self._price_rows = np.arange(self.n_steps + 1) * p
-        self._cap, self._fee = float(cfg.capital), float(cfg.fees)
+        self._cap, self._fee = float(cfg.capital), float(cfg.fees)  # nominal (TradingVectorEnv reads them)
+        self._scales = dict.fromkeys(self.perturbable, 1.0)
+        self._off = cfg.offset // cfg.bar_minutes
         self._close_new = cfg.fix("close_fee_on_new_position")
         self._terminate = not cfg.fix("truncate_at_close")
         dim = self._features.shape[2] + 1
@@ -154,19 +163,79 @@ class TradingEnv(gym.Env[np.ndarray, Any]):
 
     def _load_day(self, index: int) -> None:
         self._day = index
-        rows = self._features[index, self._obs_rows]
+        mid = self.data.mid[index]
+        shock = self._scales["price_shock"]
+        if shock == 1.0:
+            rows = self._features[index, self._obs_rows]
+        else:
+            mid = mid[0] + shock * (mid - mid[0])
+            if mid.min() <= 0:
+                msg = f"`price_shock` {shock:g} drives the price of {self.days[index]} to {mid.min():.6g} <= 0"
+                raise ValueError(msg + "; use a smaller scale")
+            rows = self._shocked_features(index, mid)[self._obs_rows]
+        self._episode_fee = self._fee * self._scales["fees"]
         obs = np.empty((3, len(rows), rows.shape[1] + 1), dtype=self._dtype)
         obs[:, :, :-1] = rows
         obs[:, :, -1] = np.arange(3)[:, None]
         obs.flags.writeable = False  # rows are returned as views: keep them immutable
         self._obs = (obs[0], obs[1], obs[2])
-        self._mid = self.data.mid[index, self._price_rows].tolist()
+        self._mid = mid[self._price_rows].tolist()
         self._time = list(self.data.time[index, self._price_rows])
         self._k = 0
         self._pos = 0
         self._positions = [0] * self.n_steps
         self.cum_pnl = 0.0
         self.cum_fees = 0.0
+
+    def _shocked_features(self, index: int, shocked: np.ndarray) -> np.ndarray:
+        """The day's feature rows with the price changes recomputed on the shocked session prices.
+
+        Change ``d = p(a) / p(b) - 1`` (``b = a - offset``): recomputed when both bars are in the session;
+        kept when both precede the open (the history is not shocked); across the open, ``p(b)`` is the
+        historical price ``p(a) / (1 + d)``, so ``d' = (1 + d) p'(a) / p(a) - 1`` (a change stored as 0,
+        missing data or no move, stays 0; with ``offset`` one bar, ``p'(a) = p(a)`` at the open).
+        """
+        cfg, nominal = self.config, self.data.mid[index]
+        deltas = self.data.deltas[index].copy()  # (bars, number_of_deltas)
+        a = np.arange(len(nominal))[:, None] - np.arange(cfg.number_of_deltas)[None, :] * self._off
+        b = a - self._off
+        inside = b >= 0
+        deltas[inside] = shocked[a[inside]] / shocked[b[inside]] - 1.0
+        across = (a > 0) & (b < 0) & (deltas != 0.0)
+        deltas[across] = (1.0 + deltas[across]) * shocked[a[across]] / nominal[a[across]] - 1.0
+        if cfg.normalize:
+            deltas = features.scaler(cfg).transform(deltas)
+        rows = self._features[index].copy()
+        rows[:, : cfg.number_of_deltas] = deltas
+        return rows
+
+    # -- exogenous perturbation ----------------------------------------------------------------------
+
+    def perturb(self, scales: Mapping[str, float]) -> None:
+        """Scale market parameters from the next ``reset()`` on, until the next call.
+
+        Scales multiply the configured (nominal) values, never the current ones: a call replaces the
+        previous one, and ``perturb({})`` restores the nominal market.
+
+        Args:
+            scales: Multipliers by name (missing names are 1). ``price_shock`` s moves every session price
+                of the day away from the day's first price p0: ``p'(t) = p0 + s (p(t) - p0)``, used for the
+                P&L, ``info["mid_price"]`` and the observed price changes (history before the open is
+                kept), so holding a position over any interval earns s times its nominal P&L. ``fees``
+                multiplies the fee per unit of position change.
+
+        Raises:
+            ValueError: A name not in ``perturbable``, or a scale that is not a finite positive number.
+        """
+        unknown = sorted(set(scales) - set(self.perturbable))
+        if unknown:
+            raise ValueError(f"unknown perturbation parameters {unknown}; expected some of {list(self.perturbable)}")
+        new = dict.fromkeys(self.perturbable, 1.0)
+        for name, value in scales.items():
+            if isinstance(value, bool) or not isinstance(value, numbers.Real) or not 0 < value < math.inf:
+                raise ValueError(f"perturbation scale `{name}` must be a finite number > 0, not {value!r}")
+            new[name] = float(value)
+        self._scales = new
 
     def _day_index(self, day: Any) -> int:
         if isinstance(day, (int, np.integer)) and not isinstance(day, bool):
@@ -234,11 +303,11 @@ class TradingEnv(gym.Env[np.ndarray, Any]):
         self._positions[k] = pos
         price = self._mid[k + 1]
         pnl = self._cap * pos * (price - self._mid[k])
-        fee = self._fee * abs(pos - prev)
+        fee = self._episode_fee * abs(pos - prev)
         k += 1
         self._k = k
         if k == self.n_steps:
-            fee += self._fee * abs(pos if self._close_new else prev)
+            fee += self._episode_fee * abs(pos if self._close_new else prev)
             self._pos = 0
             obs = self._obs[FLAT][k]
             terminated, truncated = self._terminate, True
