@@ -49,6 +49,15 @@ TWIN_FIXES = (
 )
 
 
+#: How far outside [0, 1] an action may stray (float rounding) before it is refused; it is then clipped.
+ACTION_TOLERANCE = 1e-6
+
+
+def action_error(value: float) -> ValueError:
+    """The error of an action outside ``[0, 1]`` (or NaN), shared by the single and the batched env."""
+    return ValueError(f"action must be in [0, 1] (the fraction of net power sent to the battery), got {value!r}")
+
+
 @functools.lru_cache(maxsize=8)
 def _world(paths: tuple[Path, Path, Path, Path], step: float, temp_step: float) -> World:
     return World.load(*paths, step=step, temp_step=temp_step)
@@ -424,9 +433,8 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
                 raise ValueError(msg)
             a = float(flat[0])
         if not 0.0 <= a <= 1.0:
-            if not -1e-6 <= a <= 1.0 + 1e-6:  # NaN fails both tests
-                msg = f"action must be in [0, 1] (the fraction of net power sent to the battery), got {a!r}"
-                raise ValueError(msg)
+            if not -ACTION_TOLERANCE <= a <= 1.0 + ACTION_TOLERANCE:  # NaN fails both tests
+                raise action_error(a)
             a = 0.0 if a < 0.0 else 1.0
 
         w, bat = self.world, self.battery
