@@ -75,6 +75,7 @@ def gym4real_register_envs() -> list[EnvSpec]:
         EnvSpec(
             id=ENV_ID,
             entry_point="gym4real.microgrid.env:MicrogridEnv",
+            vector_entry_point="gym4real.microgrid.vector:MicrogridVectorEnv",
             description="Household PV + battery (digital twin) + day-ahead market, hourly, continuous action",
             flags=frozenset(
                 {

@@ -1,0 +1,125 @@
+"""The batched MicrogridVectorEnv against N single MicrogridEnvs, step by step."""
+
+from __future__ import annotations
+
+import re
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import gym4real  # noqa: F401  (registers the ids)
+from gym4real.microgrid import MicrogridEnv
+from gym4real.microgrid.aging import AgingParams
+from gym4real.microgrid.rainflow import StreamingRainflow
+from gym4real.microgrid.vector import MicrogridVectorEnv, _Rainflow
+
+ENV_ID = "gym4real/microgrid-v0"
+COMPONENTS = ("trading", "degradation", "clipping")
+
+CONFIGS: dict[str, dict[str, Any]] = {
+    # random profile, start hour and battery per copy; episodes of 120 h, so each copy resets twice
+    "random-starts": {"max_steps": 120, "random_start": True, "random_battery_init": True, "observe_soh": True},
+    # profiles in file order, 3 h decisions; a battery near its end of life (at the default EUR per unit
+    # of SoH) so that copies end at different times, by end of life or after 100 h, inside a decision
+    "end-of-life": {
+        "preset": "test",
+        "max_steps": 100,
+        "decision_interval": 3,
+        "battery": {"eol_soh": 0.9998, "replacement_cost": 1.5},
+    },
+}
+
+
+@pytest.mark.parametrize("name", list(CONFIGS))
+def test_batched_copies_follow_the_single_env_step_by_step(name: str) -> None:
+    kwargs, n, steps = CONFIGS[name], 5, 300
+    vec = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", **kwargs)
+    singles = [MicrogridEnv(**kwargs) for _ in range(n)]
+    obs, info = vec.reset(seed=30)
+    starts = [e.reset(seed=30 + i) for i, e in enumerate(singles)]
+    assert list(info["profile"]) == [i["profile"] for _, i in starts]
+    assert list(info["start"]) == [i["start"] for _, i in starts]
+    single_obs = [o for o, _ in starts]
+    rng = np.random.default_rng(4)
+    pending = np.zeros(n, dtype=bool)  # copies that ended at the previous step (next-step autoreset)
+    ends = {"terminated": 0, "truncated": 0}
+    for t in range(steps):
+        np.testing.assert_allclose(obs, np.stack(single_obs), rtol=1e-6, err_msg=f"step {t}")
+        actions = rng.uniform(0.0, 1.0, size=(n, 1)).astype(np.float32)
+        actions[t % n] = np.float32(1.0 + 5e-7)  # within the tolerance: clipped to 1 by both
+        obs, rewards, terminated, truncated, info = vec.step(actions)
+        single_obs = []
+        for i, env in enumerate(singles):
+            if pending[i]:
+                single_obs.append(env.reset()[0])
+                assert rewards[i] == 0.0 and not terminated[i] and not truncated[i]
+                assert all(info["reward_components"][k][i] == 0.0 for k in COMPONENTS)
+                continue
+            o, r, term, trunc, inf = env.step(actions[i])
+            single_obs.append(o)
+            assert rewards[i] == pytest.approx(r, rel=0, abs=1e-9)
+            assert (terminated[i], truncated[i]) == (term, trunc)
+            for k in COMPONENTS:
+                assert info["reward_components"][k][i] == pytest.approx(inf["reward_components"][k], rel=0, abs=1e-9)
+                assert info["pure_components"][k][i] == pytest.approx(inf["pure_components"][k], rel=1e-9, abs=1e-9)
+            for k, v in inf["energy"].items():
+                assert info["energy"][k][i] == pytest.approx(v, rel=1e-12, abs=1e-9)
+            assert info["cost"][i] == pytest.approx(inf["cost"], rel=1e-12, abs=1e-15)
+            assert info["soh"][i] == pytest.approx(inf["soh"], rel=1e-14)
+        ends["terminated"] += int(terminated.sum())
+        ends["truncated"] += int(truncated.sum())
+        pending = terminated | truncated
+    assert ends["truncated"] > 0  # autoresets were crossed
+    if name == "end-of-life":
+        assert ends["terminated"] > 0
+
+
+def test_batched_rainflow_counts_as_the_scalar_counter() -> None:
+    """N streaming rainflow counters in arrays (stack grown from depth 2) against the scalar one."""
+    params, n = AgingParams(), 4
+    rng = np.random.default_rng(0)
+    batched = _Rainflow(n, params, depth=2)
+    scalars = [StreamingRainflow(damage=params.cycle_damage) for _ in range(n)]
+    x0, temp0 = rng.uniform(0.2, 1.0, n), rng.uniform(280.0, 310.0, n)
+    batched.reset(np.arange(n), x0, temp0)
+    for i, rf in enumerate(scalars):
+        rf.push(x0[i], temp0[i])
+    for _ in range(400):
+        x = np.round(rng.uniform(0.2, 1.0, n), 2)  # rounded: flat segments and equal ranges occur
+        x[0] = 0.5  # a constant series: no reversal at all
+        temp = rng.uniform(280.0, 310.0, n)
+        batched.push(x, temp)
+        for i, rf in enumerate(scalars):
+            rf.push(x[i], temp[i])
+        np.testing.assert_allclose(batched.total, [rf.total_damage for rf in scalars], rtol=1e-12, atol=0)
+    assert batched.depth > 2
+
+
+def _reference_error(action: np.ndarray) -> str:
+    env = MicrogridEnv()
+    env.reset(seed=0)
+    with pytest.raises(ValueError) as exc:
+        env.step(action)
+    return str(exc.value)
+
+
+@pytest.mark.parametrize("bad", [np.nan, 1.5, -0.25])
+def test_bad_actions_raise_the_single_env_error(bad: float) -> None:
+    vec = MicrogridVectorEnv(3)
+    vec.reset(seed=0)
+    actions = np.full((3, 1), 0.5, np.float32)
+    actions[1] = bad
+    with pytest.raises(ValueError, match=re.escape(_reference_error(np.array([bad], np.float32)))) as exc:
+        vec.step(actions)
+    assert "copy 1 of 3" in exc.value.__notes__[0]
+    with pytest.raises(ValueError, match=r"actions must hold one value in \[0, 1\] per copy"):
+        vec.step(np.full((3, 2), 0.5, np.float32))
+
+
+def test_settings_it_does_not_batch_are_refused() -> None:
+    with pytest.raises(ValueError, match='fidelity="corrected" only'):
+        MicrogridVectorEnv(2, fidelity="upstream")
+    with pytest.raises(ValueError, match=r"\['capacity_fade'\] are off"):
+        MicrogridVectorEnv(2, fixes={"capacity_fade": False})
