@@ -274,7 +274,8 @@ class MicrogridVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
     The equivalent circuit, the thermal model, the calendar aging, the streaming rainflow counter and the
     reward of every copy are computed together with numpy (no per-copy Python in a step, except at the
     resets that draw each copy's episode). Only the default ``fidelity="corrected"`` with every fix on is
-    batched; other settings raise ``ValueError`` (use ``gymnasium.vector.SyncVectorEnv``).
+    batched; other settings raise ``ValueError`` (use ``gymnasium.vector.SyncVectorEnv``). The copies run
+    the nominal model: the perturbation hook (:meth:`MicrogridEnv.perturb`) is not batched.
 
     ## Spaces
     ``action_space``: ``Box(0, 1, (num_envs, 1), float32)``; an array of shape ``(num_envs,)`` is accepted
