@@ -535,7 +535,8 @@ class BatteryTwin:
         self.soc_violation = violation
         # 3. electrical (passive current I; the circuit equations use the active i = -I)
         if o.consistent_current:
-            current = 2.0 * applied / (a + math.sqrt(a * a + 4.0 * b * applied)) if applied else 0.0
+            # the power bounds keep the discriminant >= 0; max() absorbs rounding at the discharge bound
+            current = 2.0 * applied / (a + math.sqrt(max(a * a + 4.0 * b * applied, 0.0))) if applied else 0.0
         else:
             current = applied / self.voltage
         v_rc = (self.v_rc / dt - current / c) / den
