@@ -187,9 +187,10 @@ class SensorDropout(_Seeded):
 class ExogenousPerturbation(_Seeded):
     """Domain parameters drawn anew each episode: ``scale = 1 + strength * U(-1, 1)`` per parameter.
 
-    The parameters are those the env lists in ``perturbable`` (dam lake surface, microgrid battery
-    capacity and prices, wds pump curves and demand, trading price shocks and fees); the env applies
-    them through its ``perturb(scales)`` before the reset. ``info["perturbation"]`` holds the scales.
+    The parameters are those the env lists in ``perturbable`` (dam lake surface and inflow, microgrid
+    battery capacity, prices, demand and PV, wds pump curves and demand, trading price shocks and fees);
+    the env applies them through its ``perturb(scales)`` before the reset, as multiples of the nominal
+    values. ``info["perturbation"]`` holds the scales.
     """
 
     def __init__(self, env: gym.Env[Any, Any], strength: float) -> None:
