@@ -36,6 +36,7 @@ def gym4real_register_envs() -> list[EnvSpec]:
         EnvSpec(
             id=ENV_ID,
             entry_point="gym4real.dam.env:DamEnv",
+            vector_entry_point="gym4real.dam.vector:DamVectorEnv",
             description="Lake Como daily release: 365 daily decisions, hourly mass balance, 1946-2010 data",
             flags=frozenset(
                 {
