@@ -101,7 +101,6 @@ class Historical:
         self.levels = RecordedLevels(cfg.data_dir, self.env._fixes["drop_feb29"])
         self.low = float(self.env.action_space.low[0])
         self.high = float(self.env.action_space.high[0])
-        self.dtype = self.env.action_space.dtype
 
     def release(self) -> float:
         """The unclipped historical release of the env's current day (m3/s)."""
@@ -118,8 +117,12 @@ class Historical:
         return ep.inflow[t] - ep.evaporation[t] - base.lake.surface * (target - start) / SECONDS_PER_DAY
 
     def __call__(self, obs: Any) -> np.ndarray:
-        """Return the historical release, clipped into the action box."""
-        return np.array([min(max(self.release(), self.low), self.high)], dtype=self.dtype)
+        """Return the historical release, clipped into the action box.
+
+        In float64, wider than the box's float32: the reconstruction reproduces the recorded levels to
+        rounding error only at full precision (float32 rounding moves releases that sit on a bound).
+        """
+        return np.array([min(max(self.release(), self.low), self.high)])
 
 
 def reconstruction_report(
