@@ -147,13 +147,13 @@ def test_demand_and_generation_scales_in_the_energy_balance(d: float, g: float) 
 @pytest.mark.parametrize(
     ("scales", "match"),
     [
-        ({"capacity": 1.1}, "unknown perturbation parameter 'capacity'.*battery_capacity"),
-        ({"battery_capacity": 0.0}, "'battery_capacity' must be a finite positive number"),
-        ({"energy_price": -1.0}, "'energy_price' must be a finite positive number"),
-        ({"demand": math.nan}, "'demand' must be a finite positive number"),
-        ({"generation": math.inf}, "'generation' must be a finite positive number"),
-        ({"demand": "1.1"}, "'demand' must be a finite positive number"),
-        ({"demand": True}, "'demand' must be a finite positive number"),
+        ({"capacity": 1.1}, r"unknown perturbation parameters \['capacity'\].*battery_capacity"),
+        ({"battery_capacity": 0.0}, "`battery_capacity` must be a finite number > 0"),
+        ({"energy_price": -1.0}, "`energy_price` must be a finite number > 0"),
+        ({"demand": math.nan}, "`demand` must be a finite number > 0"),
+        ({"generation": math.inf}, "`generation` must be a finite number > 0"),
+        ({"demand": "1.1"}, "`demand` must be a finite number > 0"),
+        ({"demand": True}, "`demand` must be a finite number > 0"),
     ],
 )
 def test_bad_perturbations_raise(scales: dict[str, Any], match: str) -> None:

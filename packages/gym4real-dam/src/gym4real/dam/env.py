@@ -15,6 +15,7 @@ from gymnasium import spaces
 
 from gym4real.core.datasets import resolve
 from gym4real.core.errors import ConfigError, DataFileError
+from gym4real.core.perturbation import check_scales
 from gym4real.dam.config import DamConfig
 from gym4real.dam.data import calendar_days, read_daily_column, read_yearly
 from gym4real.dam.lake import SECONDS_PER_DAY, Lake, deficit_weight
@@ -341,18 +342,7 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
             ValueError: A name other than those of ``perturbable``; a scale that is not a finite positive
                 number; scales under which the lake could leave ``level_bounds`` in an episode.
         """
-        unknown = sorted(set(scales) - set(PERTURBABLE))
-        if unknown:
-            raise ValueError(f"unknown perturbation parameters {unknown}; expected some of {list(PERTURBABLE)}")
-        new = dict.fromkeys(PERTURBABLE, 1.0)
-        for name, value in scales.items():
-            try:
-                scale = float(value)
-            except (TypeError, ValueError):
-                scale = math.nan
-            if not (math.isfinite(scale) and scale > 0):
-                raise ValueError(f"perturbation scale of `{name}` must be a finite number > 0, not {value!r}")
-            new[name] = scale
+        new = check_scales(scales, PERTURBABLE)
         lake = self._make_lake(self.config.lake.surface * new["lake_surface"])
         try:
             self._check_level_bounds(self.config.lake.init_level, lake, new)

@@ -5,7 +5,6 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-import numbers
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -15,6 +14,7 @@ import numpy as np
 from gymnasium import spaces
 
 from gym4real.core.errors import DataFileError
+from gym4real.core.perturbation import check_scales
 from gym4real.microgrid.battery import BatteryParams, BatteryTwin, TwinOptions, load_battery
 from gym4real.microgrid.config import MicrogridConfig
 from gym4real.microgrid.data import World, data_path
@@ -278,16 +278,7 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
         Raises:
             ValueError: An unknown name, or a scale that is not a finite positive number.
         """
-        new = dict.fromkeys(self.perturbable, 1.0)
-        for name, value in scales.items():
-            if name not in new:
-                msg = f"unknown perturbation parameter {name!r}; expected some of {list(self.perturbable)}"
-                raise ValueError(msg)
-            if isinstance(value, bool) or not isinstance(value, numbers.Real) or not 0.0 < value < math.inf:
-                msg = f"perturbation scale of {name!r} must be a finite positive number, not {value!r}"
-                raise ValueError(msg)
-            new[name] = float(value)
-        self._pending_scales = new
+        self._pending_scales = check_scales(scales, self.perturbable)
 
     @property
     def scales(self) -> dict[str, float]:

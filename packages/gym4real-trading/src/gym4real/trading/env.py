@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import datetime as dt
-import math
-import numbers
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -13,6 +11,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from gym4real.core.perturbation import check_scales
 from gym4real.trading import features
 from gym4real.trading.config import TradingConfig
 
@@ -227,15 +226,7 @@ class TradingEnv(gym.Env[np.ndarray, Any]):
         Raises:
             ValueError: A name not in ``perturbable``, or a scale that is not a finite positive number.
         """
-        unknown = sorted(set(scales) - set(self.perturbable))
-        if unknown:
-            raise ValueError(f"unknown perturbation parameters {unknown}; expected some of {list(self.perturbable)}")
-        new = dict.fromkeys(self.perturbable, 1.0)
-        for name, value in scales.items():
-            if isinstance(value, bool) or not isinstance(value, numbers.Real) or not 0 < value < math.inf:
-                raise ValueError(f"perturbation scale `{name}` must be a finite number > 0, not {value!r}")
-            new[name] = float(value)
-        self._scales = new
+        self._scales = check_scales(scales, self.perturbable)
 
     def _day_index(self, day: Any) -> int:
         if isinstance(day, (int, np.integer)) and not isinstance(day, bool):

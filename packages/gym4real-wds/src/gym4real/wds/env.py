@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import numbers
 import operator
 import weakref
 from collections.abc import Mapping
@@ -16,6 +15,7 @@ from gymnasium import spaces
 
 from gym4real.core.datasets import resolve
 from gym4real.core.errors import ConfigError
+from gym4real.core.perturbation import check_scales
 from gym4real.wds import demand
 from gym4real.wds import engine as en
 from gym4real.wds.config import WDSConfig
@@ -301,15 +301,7 @@ class WDSEnv(gym.Env[np.ndarray, np.int64]):
         Raises:
             ValueError: A name not in ``perturbable``, or a scale that is not a finite positive number.
         """
-        unknown = sorted(set(scales) - set(self.perturbable))
-        if unknown:
-            raise ValueError(f"unknown perturbation parameters {unknown}; expected some of {list(self.perturbable)}")
-        new = dict.fromkeys(self.perturbable, 1.0)
-        for name, value in scales.items():
-            if isinstance(value, bool) or not isinstance(value, numbers.Real) or not 0 < value < math.inf:
-                raise ValueError(f"perturbation scale `{name}` must be a finite number > 0, not {value!r}")
-            new[name] = float(value)
-        self._scales = new
+        self._scales = check_scales(scales, self.perturbable)
 
     def _apply_pump_scale(self) -> None:
         tk, ph, s = self._engine.tk, self._engine.ph, self._scales["pump_curve"]
