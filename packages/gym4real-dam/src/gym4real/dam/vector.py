@@ -80,7 +80,8 @@ class DamVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         if cfg.fidelity != "corrected" or missing:
             msg = (
                 f'the batched dam supports fidelity="corrected" with the fixes {list(_NEEDED_FIXES)} only '
-                f"(got fidelity={cfg.fidelity!r}, fixes off: {missing}); use gymnasium.vector.SyncVectorEnv"
+                f"(got fidelity={cfg.fidelity!r}, fixes off: {missing}); "
+                "use gymnasium.make_vec(..., vectorization_mode='sync')"
             )
             raise ValueError(msg)
         self.num_envs = num_envs

@@ -41,7 +41,10 @@ class ElevatorVectorEnv(VectorEnv[dict[str, Any], np.ndarray, np.ndarray]):
         self.single = ElevatorEnv(config, preset=preset, **overrides)
         self.config = cfg = self.single.config
         if cfg.fidelity != "corrected":
-            raise ValueError('the batched elevator supports fidelity="corrected" only; use SyncVectorEnv for upstream')
+            raise ValueError(
+                'the batched elevator supports fidelity="corrected" only; for upstream use '
+                "gymnasium.make_vec(..., vectorization_mode='sync')"
+            )
         self.num_envs = num_envs
         self.single_observation_space = self.single.observation_space
         self.single_action_space = self.single.action_space

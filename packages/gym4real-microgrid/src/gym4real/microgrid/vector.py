@@ -315,12 +315,16 @@ class MicrogridVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         self.single = s = MicrogridEnv(config, preset=preset, **overrides)
         self.config = cfg = s.config
         if cfg.fidelity != "corrected":
-            msg = 'MicrogridVectorEnv batches fidelity="corrected" only; use SyncVectorEnv for fidelity="upstream"'
+            msg = (
+                'MicrogridVectorEnv batches fidelity="corrected" only; for fidelity="upstream" use '
+                "gymnasium.make_vec(..., vectorization_mode='sync')"
+            )
             raise ValueError(msg)
         off = [f for f in (*TWIN_FIXES, "data_alignment") if not cfg.fix(f)]
         if off:
             msg = (
-                f"MicrogridVectorEnv batches the corrected dynamics with every fix on; {off} are off: use SyncVectorEnv"
+                f"MicrogridVectorEnv batches the corrected dynamics with every fix on; {off} are off: "
+                "use gymnasium.make_vec(..., vectorization_mode='sync')"
             )
             raise ValueError(msg)
         self.num_envs = n = num_envs
