@@ -38,7 +38,23 @@ def test_collect_two_episodes_and_load_them_back(env_id: str, policy: str, tmp_p
     assert dataset.total_episodes == 2
     env = dataset.recover_environment()
     assert env.spec.id == env_id
-    returns = [float(np.sum(ep.rewards)) for ep in dataset.iterate_episodes()]
-    expected = [run_episode(env, make_policy(env_id, policy, env), 3 + i, None)["rewards"].sum() for i in range(2)]
-    np.testing.assert_allclose(returns, expected)
     assert os.environ["MINARI_DATASETS_PATH"] == str(tmp_path)
+    episodes = list(dataset.iterate_episodes())
+    expected = [run_episode(env, make_policy(env_id, policy, env), 3 + i, None)["rewards"].sum() for i in range(2)]
+    np.testing.assert_allclose([float(np.sum(ep.rewards)) for ep in episodes], expected, rtol=1e-6)
+    for i, ep in enumerate(episodes):  # the stored actions replay the stored transitions
+        assert env.action_space.contains(ep.actions[0])
+        obs, _ = env.reset(seed=3 + i)
+        assert_same_obs(obs, ep.observations, 0)
+        for t, action in enumerate(ep.actions):
+            obs, reward, *_ = env.step(action)
+            assert reward == pytest.approx(ep.rewards[t], rel=1e-9, abs=1e-9)
+            assert_same_obs(obs, ep.observations, t + 1)
+
+
+def assert_same_obs(obs: object, stored: object, t: int) -> None:
+    if isinstance(obs, dict):
+        for key, value in obs.items():
+            assert_same_obs(value, stored[key], t)  # type: ignore[index]
+    else:
+        np.testing.assert_allclose(obs, stored[t], rtol=1e-6)  # type: ignore[index]

@@ -114,6 +114,27 @@ def test_same_seed_same_trajectory_and_different_seed_differs(env: WDSEnv) -> No
     assert len(profiles) > 1
 
 
+@pytest.mark.parametrize("fidelity", ["corrected", "upstream"])
+def test_an_episode_does_not_depend_on_the_episodes_before(fidelity: str) -> None:
+    """The tank-level rule of `default` fills and drains the tanks to their limits, where tanks are snapped."""
+    from gym4real.core.policies import make_policy
+
+    def rewards(env: WDSEnv, seed: int) -> list[float]:
+        policy = make_policy("gym4real/wds-v0", "default", env)
+        obs, _ = env.reset(seed=seed)
+        out, done = [], False
+        while not done:
+            obs, reward, terminated, truncated, _ = env.step(policy(obs))
+            out.append(float(reward))
+            done = terminated or truncated
+        return out
+
+    used = WDSEnv(fidelity=fidelity)
+    first = rewards(used, 3)
+    rewards(used, 4)
+    assert rewards(used, 3) == first == rewards(WDSEnv(fidelity=fidelity), 3)
+
+
 @settings(max_examples=8, deadline=None)
 @given(
     actions=st.lists(st.integers(0, 3), min_size=168, max_size=168),

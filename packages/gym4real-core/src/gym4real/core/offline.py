@@ -7,15 +7,28 @@ it without declaring it).
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
+import numpy as np
 
 from gym4real.core.benchmark import run_episode
 from gym4real.core.errors import PolicyError
 from gym4real.core.policies import make_policy
+
+
+def as_recorded(space: gym.Space[Any], policy: Callable[[Any], Any]) -> Callable[[Any], Any]:
+    """The policy with its actions in the dtype the dataset stores (a float Box's), before they are stepped.
+
+    A policy may act in a wider float (the dam's historical releases are float64); stepping the stored
+    float32 action keeps every transition of the dataset reproducible from its own actions.
+    """
+    if not (isinstance(space, gym.spaces.Box) and np.issubdtype(space.dtype, np.floating)):
+        return policy
+    dtype = space.dtype
+    return lambda obs: np.asarray(policy(obs)).astype(dtype)
 
 
 def dataset_id(env_id: str, policy: str) -> str:
@@ -50,7 +63,7 @@ def collect(
     os.environ["MINARI_DATASETS_PATH"] = str(out)
     try:
         env = minari.DataCollector(gym.make(env_id, **dict(env_kwargs or {})))
-        acting = make_policy(env_id, policy, env)
+        acting = as_recorded(env.action_space, make_policy(env_id, policy, env))
         for i in range(episodes):
             run_episode(env, acting, seed + i, None)
         name = dataset_id(env_id, policy)

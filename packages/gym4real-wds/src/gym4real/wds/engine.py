@@ -38,6 +38,7 @@ NODECOUNT, LINKCOUNT, CONTROLCOUNT, RULECOUNT = 0, 2, 5, 6
 JUNCTION, RESERVOIR, TANK = 0, 1, 2
 PUMP = 2
 ELEVATION, DEMAND, HEAD, PRESSURE = 0, 9, 10, 11
+INIT_FLOWS = 10  # EN_initH flag: re-initialise link flows, do not save results
 TANKLEVEL, TANKDIAM, MINVOLUME, VOLCURVE, MINLEVEL, MAXLEVEL, TANKVOLUME, MAXVOLUME = 8, 17, 18, 19, 20, 21, 24, 25
 DEMANDFLOW, FULLDEMAND = 31, 32
 INITSTATUS, FLOW, STATUS, PUMP_POWER = 4, 8, 11, 18
@@ -497,18 +498,19 @@ class Engine:
     # hydraulics: thin wrappers turning EPANET's exceptions into EpanetError
 
     def init_hydraulics(self) -> None:
-        """Start an episode: a fresh hydraulic solver (``closeH``, ``openH``) and ``EN_initH(0)``.
+        """Start an episode: a fresh hydraulic solver (``closeH``, ``openH``) and ``EN_initH(10)``.
 
-        ``initH`` alone resets the clock, tank levels and link status but keeps solver state of the last
-        episode (the pressure-driven demands EPANET starts its iterations from), which moves results in
-        the sixth digit and breaks same-seed determinism; re-opening the solver costs about 15 µs.
+        ``EN_initH(0)`` resets the clock, tank levels and link status but keeps solver state of the last
+        episode: the pressure-driven demands and the link flows EPANET starts its iterations from (flag
+        10 re-initialises the flows). Either moves results in the seventh digit and breaks same-seed
+        determinism; re-opening the solver costs about 15 µs.
         """
         if self._hyd_open:
             self._call("closeH", self.tk.closeH, self.ph)
             self._hyd_open = False
         self._call("openH", self.tk.openH, self.ph)
         self._hyd_open = True
-        self._call("initH", self.tk.initH, self.ph, 0)
+        self._call("initH", self.tk.initH, self.ph, INIT_FLOWS)
 
     def run(self) -> int:
         """``EN_runH``: solve at the current clock time; returns the time (s)."""

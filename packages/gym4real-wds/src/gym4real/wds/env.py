@@ -108,8 +108,9 @@ class WDSEnv(gym.Env[np.ndarray, np.int64]):
        created from nothing). Corrected: such a tank is set to its limit before the solve, and the tanks'
        volume change equals pumped minus delivered volume. Upstream: EPANET's behaviour.
     7. Engine life cycle: one project per env, report file in a private temporary folder (removed at
-       once on POSIX), a fresh hydraulic solver per episode (``closeH``/``openH``/``initH``: ``initH``
-       alone carries solver state across episodes and breaks same-seed determinism), everything
+       once on POSIX), a fresh hydraulic solver per episode (``closeH``/``openH``/``initH`` with the link
+       flows re-initialised: ``initH(0)`` alone carries solver state across episodes and breaks same-seed
+       determinism), everything
        released by ``close()`` or garbage collection (both modes).
     8. Information: pump statuses, tank levels, volumes and the profile in ``info`` (both modes); no print.
     9. Observation bounds hold in both modes (the reference's Box is violated by its own values).
@@ -219,7 +220,10 @@ class WDSEnv(gym.Env[np.ndarray, np.int64]):
         self._n_pumps = len(net.pump_ids)
         self._tank_nodes = tuple(int(i) + 1 for i in net.tank_pos)
         self._q_to_volume = net.flow_to_volume_per_second
-        self._tanks_moved = False
+        # Snapping a tank (exact tank events) sets its initial level through the toolkit, and the next reset
+        # sets it back; the file's own initial head can differ from a toolkit-set one in the last bit, so the
+        # toolkit sets it from the start and every episode begins from the same state.
+        self._tanks_moved = self._exact_events
         self._decisions = cfg.duration // cfg.decision_interval
 
         n_t, n_j = len(net.tank_ids), len(observed)
@@ -366,7 +370,7 @@ class WDSEnv(gym.Env[np.ndarray, np.int64]):
             est = demand.moving_average if cfg.demand.estimate == "sma" else demand.exp_moving_average
             self._estimate = est(pattern, cfg.demand.window)
         self._m_ref = float(pattern[(cfg.duration // cfg.pattern_step) % len(pattern)])
-        if self._tanks_moved:  # a snapped tank level also replaced its initial level
+        if self._tanks_moved:  # a snapped tank level also replaced its initial level (see _setup)
             tk, ph = self._engine.tk, self._engine.ph
             for node, level in zip(self._tank_nodes, self.network.tank_initial_level, strict=True):
                 tk.setnodevalue(ph, node, en.TANKLEVEL, float(level))
