@@ -327,6 +327,56 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
         """Row of the daily temperature series at a time (the reference wraps at ``len - 1`` days)."""
         return int(seconds // self.world.temp_step) % self._day_mod
 
+    def _option_profile(self, options: Mapping[str, Any]) -> str | None:
+        """The profile named by ``options`` (``profile`` or ``eval_profile``), checked; None if none is."""
+        profile = options.get("profile", options.get("eval_profile"))
+        if profile is None:
+            return None
+        if str(profile) not in self.world.labels:
+            msg = f"`options['profile']` {profile!r} is not a demand column; available: {list(self.world.labels)}"
+            raise ValueError(msg)
+        return str(profile)
+
+    def _option_start(self, options: Mapping[str, Any]) -> int | None:
+        """The start row named by ``options['start']``, checked; None if none is."""
+        if "start" not in options:
+            return None
+        row = int(options["start"])
+        if not 1 <= row < self._n_rows:
+            raise ValueError(f"`options['start']` must be a data row in [1, {self._n_rows - 1}], not {row}")
+        return row
+
+    def draw_start(
+        self, options: Mapping[str, Any], rng: np.random.Generator, cursor: int
+    ) -> tuple[str, int, int | None, tuple[float, float, float] | None]:
+        """Draw an episode start as the corrected mode does (the batched env draws each copy's with it).
+
+        Args:
+            options: The reset options (``profile``/``eval_profile``, ``start``); what they name is not drawn.
+            rng: The generator of the draws, in the order profile, start row, SoC, SoH, temperature.
+            cursor: The position in the profile list of ``profile_order: sequential``.
+
+        Returns:
+            The profile label, the start row, the next cursor (None when the options chose the profile) and
+            the battery's (SoC, SoH, temperature), None for the pack's initial state.
+        """
+        cfg, labels = self.config, self.profiles
+        profile, next_cursor = self._option_profile(options), None
+        if profile is None:
+            if cfg.profile_order == "sequential":
+                profile, next_cursor = labels[cursor], (cursor + 1) % len(labels)
+            else:
+                profile = labels[int(rng.integers(len(labels)))]
+        row = self._option_start(options)
+        if row is None:
+            row = int(rng.integers(1, self._n_rows - 1)) if cfg.random_start else 1
+        battery = None
+        if cfg.random_battery_init:
+            bounds = self.battery_params.bounds()
+            soc, soh, temperature = (float(rng.uniform(*bounds[k])) for k in ("soc", "soh", "temperature"))
+            battery = (soc, soh, temperature)
+        return profile, row, next_cursor, battery
+
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict]:
         """Start an episode: choose the profile, the start hour and the initial battery state."""
         super().reset(seed=seed)
@@ -334,40 +384,25 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
         cfg = self.config
         p = self.battery_params
         labels = self.profiles
-        profile = options.get("profile", options.get("eval_profile"))
         rng = self._legacy_rng if self._upstream else None
-        if profile is not None:
-            profile = str(profile)
-            if profile not in self.world.labels:
-                msg = f"`options['profile']` {profile!r} is not a demand column; available: {list(self.world.labels)}"
-                raise ValueError(msg)
-        elif rng is not None:
-            profile = str(rng.choice(list(labels)))
-        elif cfg.profile_order == "sequential":
-            if seed is not None:
-                self._cursor = seed % len(labels)
-            profile = labels[self._cursor]
-            self._cursor = (self._cursor + 1) % len(labels)
-        else:
-            profile = labels[int(self.np_random.integers(len(labels)))]
-        row = 1
-        if "start" in options:
-            row = int(options["start"])
-            if not 1 <= row < self._n_rows:
-                msg = f"`options['start']` must be a data row in [1, {self._n_rows - 1}], not {row}"
-                raise ValueError(msg)
-        elif cfg.random_start:
-            if rng is not None:
-                row = int(rng.randint(1, self._n_rows - 1))
-            else:
-                row = int(self.np_random.integers(1, self._n_rows - 1))
         soc, soh, temperature = p.init_soc, p.init_soh, None
-        if cfg.random_battery_init:
-            if rng is not None:  # the reference draws every bound, in the pack's order
+        if rng is not None:
+            profile = self._option_profile(options)
+            if profile is None:
+                profile = str(rng.choice(list(labels)))
+            row = self._option_start(options)
+            if row is None:
+                row = int(rng.randint(1, self._n_rows - 1)) if cfg.random_start else 1
+            if cfg.random_battery_init:  # the reference draws every bound, in the pack's order
                 draws = {k: float(rng.uniform(lo, hi)) for k, (lo, hi) in p.bounds().items()}
-            else:
-                draws = {k: float(self.np_random.uniform(*p.bounds()[k])) for k in ("soc", "soh", "temperature")}
-            soc, soh, temperature = draws["soc"], draws["soh"], draws["temperature"]
+                soc, soh, temperature = draws["soc"], draws["soh"], draws["temperature"]
+        else:
+            cursor = self._cursor if seed is None else seed % len(labels)
+            profile, row, next_cursor, battery = self.draw_start(options, self.np_random, cursor)
+            if next_cursor is not None:
+                self._cursor = next_cursor
+            if battery is not None:
+                soc, soh, temperature = battery
         self._profile = profile
         self._apply_scales()
         self._demand = self._profile_series(profile)

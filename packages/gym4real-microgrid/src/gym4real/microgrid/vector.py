@@ -335,7 +335,6 @@ class MicrogridVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         self.action_space = batch_space(s.action_space, n)
         w = s.world
         self._labels = np.array(w.labels)
-        self._profile_cols = np.array([w.labels.index(label) for label in s.profiles])
         self._demand = np.asarray(w.demand)
         self._pv, self._ask, self._bid = np.array(s._pv), np.array(s._ask), np.array(s._bid)
         self._temp_amb = np.array(w.temp)
@@ -368,34 +367,14 @@ class MicrogridVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
 
     def _draw(self, i: int, options: Mapping[str, Any]) -> tuple[int, int, float, float, float]:
         """Copy ``i``'s profile column, start row, SoC, SoH and temperature, drawn as the single env does."""
-        s, cfg, p = self.single, self.config, self.single.battery_params
+        s, p = self.single, self.single.battery_params
         assert self._rngs is not None  # reset() seeds the generators before any draw
-        rng = self._rngs[i]
-        profile = options.get("profile", options.get("eval_profile"))
-        if profile is not None:
-            if str(profile) not in s.world.labels:
-                msg = f"`options['profile']` {profile!r} is not a demand column; available: {list(s.world.labels)}"
-                raise ValueError(msg)
-            col = s.world.labels.index(str(profile))
-        elif cfg.profile_order == "sequential":
-            col = int(self._profile_cols[self._cursor[i]])
-            self._cursor[i] = (self._cursor[i] + 1) % len(self._profile_cols)
-        else:
-            col = int(self._profile_cols[int(rng.integers(len(self._profile_cols)))])
-        row = 1
-        if "start" in options:
-            row = int(options["start"])
-            if not 1 <= row < s._n_rows:
-                msg = f"`options['start']` must be a data row in [1, {s._n_rows - 1}], not {row}"
-                raise ValueError(msg)
-        elif cfg.random_start:
-            row = int(rng.integers(1, s._n_rows - 1))
-        soc, soh = p.init_soc, p.init_soh
-        temperature = s.world.temp[s._day(row * s._step_s)]
-        if cfg.random_battery_init:
-            bounds = p.bounds()
-            soc, soh, temperature = (float(rng.uniform(*bounds[k])) for k in ("soc", "soh", "temperature"))
-        return col, row, soc, soh, temperature
+        profile, row, next_cursor, battery = s.draw_start(options, self._rngs[i], int(self._cursor[i]))
+        if next_cursor is not None:
+            self._cursor[i] = next_cursor
+        if battery is None:
+            battery = (p.init_soc, p.init_soh, s.world.temp[s._day(row * s._step_s)])
+        return s.world.labels.index(profile), row, *battery
 
     def _start(self, idx: Array, options: Mapping[str, Any]) -> None:
         """Start a new episode in the copies ``idx``."""
@@ -422,7 +401,7 @@ class MicrogridVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         n = self.num_envs
         if seed is not None:
             self._rngs = [seeding.np_random(seed + i)[0] for i in range(n)]
-            self._cursor = (seed + np.arange(n)) % len(self._profile_cols)
+            self._cursor = (seed + np.arange(n)) % len(self.single.profiles)
         elif self._rngs is None:
             self._rngs = [seeding.np_random(int(k))[0] for k in self.np_random.integers(2**31, size=n)]
         idx = np.arange(n)
