@@ -131,8 +131,18 @@ def _cmd_dataset(args: argparse.Namespace) -> None:
     print(f"Minari dataset written to {path} (load it with MINARI_DATASETS_PATH={args.out})")
 
 
+#: What the command trusts, printed under ``--help``.
+TRUST = (
+    "Trusted: the installed gym4real plugins (Python packages you installed). Data, never run as code: configs, "
+    "presets, data files, and model files given as ppo:PATH, dqn:PATH, qlearning:PATH or sarsa:PATH (an SB3 zip "
+    "is read without unpickling anything; a pickled entry SB3 does not write for PPO/DQN is refused)."
+)
+
+
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="gym4real", description="Realistic RL environments with the Gymnasium API.")
+    p = argparse.ArgumentParser(
+        prog="gym4real", description="Realistic RL environments with the Gymnasium API.", epilog=TRUST
+    )
     sub = p.add_subparsers(dest="command", required=True)
     sub.add_parser("list", help="list the installed environments").set_defaults(run=_cmd_list)
     info = sub.add_parser("info", help="describe an environment")
@@ -141,7 +151,10 @@ def _parser() -> argparse.ArgumentParser:
 
     bench = sub.add_parser("bench", help="benchmark policies on an environment (table and figures)")
     bench.add_argument("env_id")
-    bench.add_argument("--policies", help="comma-separated baselines or kind:path models (default: the protocol's)")
+    bench.add_argument(
+        "--policies",
+        help="comma-separated baselines or kind:path models, read as data (default: the protocol's)",
+    )
     bench.add_argument("--episodes", default="test", help='"test" (the paper protocol) or a number')
     bench.add_argument("--seed", type=int, default=0)
     bench.add_argument("--env", action="append", default=[], metavar="KEY=VALUE", help="make() keyword argument")

@@ -68,8 +68,8 @@ def random_policy(env: gym.Env[Any, Any]) -> RandomPolicy:
 
 #: Prefix of a ``kind:path`` policy string -> ``"module:loader"``; ``loader(env, path)`` returns a policy.
 MODEL_LOADERS: dict[str, str] = {
-    "ppo": "gym4real.core.rl.sb3:load_policy",
-    "dqn": "gym4real.core.rl.sb3:load_policy",
+    "ppo": "gym4real.core.rl.sb3:load_ppo",
+    "dqn": "gym4real.core.rl.sb3:load_dqn",
     "qlearning": "gym4real.core.rl.tabular:load_policy",
     "sarsa": "gym4real.core.rl.tabular:load_policy",
 }

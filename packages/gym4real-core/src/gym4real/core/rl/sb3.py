@@ -96,36 +96,41 @@ class NormalizedPolicy:
         return action
 
 
-def load_policy(env: gym.Env[Any, Any], path: str | Path) -> NormalizedPolicy:
-    """Load ``model.zip`` (and ``normalize.npz`` beside it) as a policy for ``env``.
+def load_model(env: gym.Env[Any, Any], path: str | Path, algo: str) -> NormalizedPolicy:
+    """Load ``model.zip`` (and ``normalize.npz`` beside it) of ``algo`` as a policy for ``env``.
+
+    The file is read as data (:mod:`gym4real.core.rl.model_file`): no entry of it is unpickled.
 
     Raises:
-        PolicyError: Not an SB3 model, or a model trained on other observation/action spaces.
+        PolicyError: Not an SB3 model of ``algo``, a pickled entry SB3 does not write (named), or a model
+            trained on other observation/action spaces.
     """
+    from gym4real.core.rl.model_file import custom_objects
+
     sb3 = _sb3()
     path = Path(path)
-    model = None
-    for name in ALGOS.values():
-        try:
-            model = getattr(sb3, name).load(path, device="cpu")
-            break
-        except (ValueError, KeyError, AssertionError, TypeError):
-            continue
-        except Exception as exc:
-            raise PolicyError(f"`{path}` is not a Stable-Baselines3 model file: {exc}") from exc
-    if model is None:
-        raise PolicyError(f"`{path}` is not a PPO or DQN model file")
+    algo_cls = getattr(sb3, ALGOS[algo])
     expected_actions = env.action_space
     if rescaled(env.action_space):
         expected_actions = gym.spaces.Box(-1.0, 1.0, env.action_space.shape, env.action_space.dtype)  # type: ignore[arg-type]
-    if model.observation_space != env.observation_space or model.action_space != expected_actions:
-        raise PolicyError(
-            f"model `{path}` was trained on observation space {model.observation_space} and action space "
-            f"{model.action_space}; this environment has {env.observation_space} and {env.action_space}"
-        )
+    objects = custom_objects(path, algo, algo_cls, env.observation_space, expected_actions)
+    try:
+        model = algo_cls.load(path, device="cpu", custom_objects=objects)
+    except Exception as exc:  # a zip that passed the data check but whose weights do not fit
+        raise PolicyError(f"`{path}` is not a loadable {algo.upper()} model for this environment: {exc}") from exc
     stats_path = path.with_name("normalize.npz")
     stats = dict(np.load(stats_path, allow_pickle=False)) if stats_path.exists() else None
     return NormalizedPolicy(model, stats, env.action_space)
+
+
+def load_ppo(env: gym.Env[Any, Any], path: str | Path) -> NormalizedPolicy:
+    """Policy loader of ``ppo:PATH``."""
+    return load_model(env, path, "ppo")
+
+
+def load_dqn(env: gym.Env[Any, Any], path: str | Path) -> NormalizedPolicy:
+    """Policy loader of ``dqn:PATH``."""
+    return load_model(env, path, "dqn")
 
 
 def _save_normalization(vec: Any, path: Path) -> None:

@@ -1,0 +1,188 @@
+"""A Stable-Baselines3 model file read as data: nothing in it is unpickled.
+
+SB3's ``load`` unpickles (cloudpickle) every entry of the zip's ``data`` JSON marked ``:serialized:``,
+so a crafted file runs code the moment it is loaded. gym4real reads ``data`` itself first: an entry
+that SB3 does not write for PPO or DQN is refused by name, and every entry it does write is replaced,
+through SB3's ``custom_objects``, by an object built here (the environment's spaces, SB3's own policy
+and buffer classes, constant schedules). The weights (``*.pth``) are read by SB3 with
+``torch.load(weights_only=True)``, which loads tensors only.
+"""
+
+from __future__ import annotations
+
+import json
+import zipfile
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+
+from gym4real.core.errors import PolicyError
+
+#: Largest ``data`` entry read from a model file (SB3 writes a few KB).
+MAX_DATA_BYTES = 4 * 2**20
+
+#: Training state SB3 pickles in a model saved during or after ``learn`` (replaced by empty values).
+TRAINING_STATE = frozenset(
+    {"_last_obs", "_last_episode_starts", "_last_original_obs", "ep_info_buffer", "ep_success_buffer"}
+)
+
+#: The pickled entries SB3 writes for each algorithm; anything else pickled is refused.
+SERIALIZED_ENTRIES: dict[str, frozenset[str]] = {
+    "ppo": TRAINING_STATE
+    | {"policy_class", "observation_space", "action_space", "rollout_buffer_class", "clip_range", "clip_range_vf"}
+    | {"lr_schedule"},
+    "dqn": TRAINING_STATE
+    | {"policy_class", "observation_space", "action_space", "replay_buffer_class", "train_freq", "lr_schedule"}
+    | {"exploration_schedule"},
+}
+
+#: Buffer classes of SB3 that a model file may name (only used to rebuild the algorithm object).
+BUFFERS = ("RolloutBuffer", "DictRolloutBuffer", "ReplayBuffer", "DictReplayBuffer", "NStepReplayBuffer")
+
+TRUST_NOTE = (
+    "a model file is data: gym4real never unpickles it, and loads only the weights and the settings "
+    "that Stable-Baselines3 writes for PPO and DQN"
+)
+
+
+def read_data(path: Path) -> dict[str, Any]:
+    """Return the ``data`` JSON of an SB3 zip, without deserialising anything.
+
+    Raises:
+        PolicyError: Not a zip, no ``data`` entry, an oversized or malformed one.
+    """
+    try:
+        with zipfile.ZipFile(path) as archive:
+            try:
+                info = archive.getinfo("data")
+            except KeyError:
+                raise PolicyError(
+                    f"`{path}` is not a Stable-Baselines3 model file: the zip has no `data` entry"
+                ) from None
+            if info.file_size > MAX_DATA_BYTES:
+                raise PolicyError(
+                    f"`{path}`: its `data` entry is {info.file_size} bytes; a Stable-Baselines3 model writes a few KB "
+                    f"(at most {MAX_DATA_BYTES} read)"
+                )
+            raw = archive.read(info)
+    except zipfile.BadZipFile as exc:
+        raise PolicyError(f"`{path}` is not a Stable-Baselines3 model file (not a zip archive): {exc}") from exc
+    try:
+        data = json.loads(raw.decode("utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise PolicyError(f"`{path}`: the `data` entry is not the JSON that Stable-Baselines3 writes: {exc}") from exc
+    if not isinstance(data, dict):
+        raise PolicyError(f"`{path}`: the `data` entry must be a JSON object, not {type(data).__name__}")
+    return data
+
+
+def serialized_entries(data: dict[str, Any]) -> list[str]:
+    """Return the keys of ``data`` that SB3 would unpickle."""
+    return sorted(k for k, v in data.items() if isinstance(v, dict) and ":serialized:" in v)
+
+
+def _described(space: gym.Space[Any]) -> dict[str, Any]:
+    """The JSON description SB3 writes beside a pickled space (type and attributes, as text)."""
+    from stable_baselines3.common.save_util import data_to_json
+
+    described: dict[str, Any] = json.loads(data_to_json({"space": space}))["space"]
+    return described
+
+
+def _check_space(path: Path, key: str, saved: Any, expected: gym.Space[Any]) -> None:
+    """Compare the description of a saved space with the environment's (attributes both versions write)."""
+    mine = _described(expected)
+    ignored = {":serialized:", "_np_random"}
+    theirs = saved if isinstance(saved, dict) else {}
+    differing = sorted(k for k in (set(mine) & set(theirs)) - ignored if str(mine[k]) != str(theirs[k]))
+    if ":type:" not in theirs or theirs[":type:"] != mine[":type:"] or differing:
+        what = "; ".join(f"{k} {theirs.get(k)} instead of {mine.get(k)}" for k in differing) or (
+            f"{theirs.get(':type:')} instead of {mine[':type:']}"
+        )
+        raise PolicyError(
+            f"model `{path}` was trained on {key.replace('_', ' ')} of another kind ({what}); this environment has "
+            f"{expected}: train the model on this environment, or use the environment and config it was trained on"
+        )
+
+
+def _policy_class(path: Path, algo_cls: Any, saved: Any) -> type:
+    """The SB3 policy class the file names, among those the algorithm ships."""
+    saved = saved if isinstance(saved, dict) else {}
+    for cls in dict.fromkeys(algo_cls.policy_aliases.values()):
+        init = getattr(cls.__init__, "__qualname__", "")
+        if saved.get("__module__") == cls.__module__ and str(saved.get("__init__", "")).startswith(
+            f"<function {init} "
+        ):
+            found: type = cls
+            return found
+    names = sorted(algo_cls.policy_aliases)
+    raise PolicyError(
+        f"model `{path}`: its policy class ({saved.get('__module__')}, {saved.get('__init__')}) is not one that "
+        f"Stable-Baselines3 ships for {algo_cls.__name__} ({', '.join(names)}); {TRUST_NOTE}"
+    )
+
+
+def _buffer_class(path: Path, saved: Any) -> type:
+    from stable_baselines3.common import buffers
+
+    init = str(saved.get("__init__", "")) if isinstance(saved, dict) else ""
+    for name in BUFFERS:
+        if init.startswith(f"<function {name}.__init__ "):
+            cls: type = getattr(buffers, name)
+            return cls
+    raise PolicyError(f"model `{path}`: its buffer class ({init or 'unnamed'}) is not one of SB3's {list(BUFFERS)}")
+
+
+def custom_objects(
+    path: Path, algo: str, algo_cls: Any, observation_space: gym.Space[Any], action_space: gym.Space[Any]
+) -> dict[str, Any]:
+    """Return SB3 ``custom_objects`` that replace every pickled entry of the file, so none is unpickled.
+
+    Args:
+        path: The model zip.
+        algo: ``ppo`` or ``dqn`` (the ``kind:`` of the policy string).
+        algo_cls: The SB3 algorithm class.
+        observation_space: The space the model must have been trained on.
+        action_space: Likewise for actions (``[-1, 1]`` for a rescaled Box).
+
+    Raises:
+        PolicyError: A pickled entry that SB3 does not write for ``algo`` (named), a policy or buffer
+            class SB3 does not ship, or spaces that differ from the environment's.
+    """
+    from stable_baselines3.common.type_aliases import TrainFreq, TrainFrequencyUnit
+    from stable_baselines3.common.utils import ConstantSchedule
+
+    data = read_data(path)
+    pickled = serialized_entries(data)
+    refused = [k for k in pickled if k not in SERIALIZED_ENTRIES[algo]]
+    if refused:
+        raise PolicyError(
+            f"model `{path}` holds pickled entr{'y' if len(refused) == 1 else 'ies'} "
+            f"{', '.join(f'`{k}`' for k in refused)} that Stable-Baselines3 does not write for {algo.upper()}; "
+            f"it was not loaded ({TRUST_NOTE}). Use a model trained by `gym4real train`"
+        )
+    if "policy_class" not in data or "observation_space" not in data or "action_space" not in data:
+        raise PolicyError(f"model `{path}` is not a {algo.upper()} model file: it names no policy class or spaces")
+    _check_space(path, "observation_space", data["observation_space"], observation_space)
+    _check_space(path, "action_space", data["action_space"], action_space)
+    constant: Callable[[float], float] = ConstantSchedule(0.0)
+    replacements: dict[str, Any] = {
+        "policy_class": _policy_class(path, algo_cls, data["policy_class"]),
+        "observation_space": observation_space,
+        "action_space": action_space,
+        "lr_schedule": constant,
+        "clip_range": constant,
+        "clip_range_vf": None,
+        "exploration_schedule": constant,
+        "train_freq": TrainFreq(1, TrainFrequencyUnit.STEP),
+        **dict.fromkeys(TRAINING_STATE),
+    }
+    for key in ("rollout_buffer_class", "replay_buffer_class"):
+        if key in pickled:
+            replacements[key] = _buffer_class(path, data[key])
+    objects = {k: replacements[k] for k in pickled}
+    if algo == "dqn":  # inference only: no need for the file's (up to 1M-transition) replay buffer
+        objects["buffer_size"] = 1
+    return objects

@@ -1,0 +1,134 @@
+"""A trained-model file is data, never code: no entry of an SB3 zip is unpickled (issue 12, section 1).
+
+Each crafted file carries a pickle that, if unpickled, creates a marker file. The marker must never
+appear, whatever the entry that carries it and whichever entry point loads the file.
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+import pickle
+import zipfile
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+from gym4real.core.cli import main
+from gym4real.core.errors import PolicyError
+from gym4real.core.policies import make_policy
+
+pytest.importorskip("stable_baselines3")
+
+
+class _Touch:
+    """Unpickling this creates ``marker`` (pathlib.Path.touch runs during ``pickle.loads``)."""
+
+    def __init__(self, marker: Path) -> None:
+        self.marker = marker
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (Path.touch, (self.marker,))
+
+
+def _payload(marker: Path) -> str:
+    return base64.b64encode(pickle.dumps(_Touch(marker))).decode()
+
+
+def _rewrite_data(path: Path, edit: Any) -> None:
+    """Rewrite the ``data`` entry of a zip in place with ``edit(data)``."""
+    with zipfile.ZipFile(path) as archive:
+        entries = {name: archive.read(name) for name in archive.namelist()}
+    data = json.loads(entries["data"])
+    edit(data)
+    entries["data"] = json.dumps(data).encode()
+    with zipfile.ZipFile(path, "w") as archive:
+        for name, raw in entries.items():
+            archive.writestr(name, raw)
+
+
+@pytest.mark.parametrize("kind", ["ppo", "dqn"])
+def test_a_pickled_entry_sb3_does_not_write_is_refused_by_name(kind: str, tmp_path: Path) -> None:
+    marker = tmp_path / "marker"
+    model = tmp_path / "model.zip"
+    with zipfile.ZipFile(model, "w") as archive:
+        archive.writestr("data", json.dumps({"evil": {":type:": "<class 'object'>", ":serialized:": _payload(marker)}}))
+    env = gym.make("gym4real/elevator-v0")
+    with pytest.raises(PolicyError, match="pickled entry `evil`"):
+        make_policy("gym4real/elevator-v0", f"{kind}:{model}", env)
+    assert not marker.exists()
+
+
+def _saved_model(kind: str, env_id: str, path: Path) -> None:
+    from stable_baselines3 import DQN, PPO
+
+    from gym4real.core.rl.sb3 import _rescale
+
+    env = _rescale(gym.make(env_id))
+    policy = "MultiInputPolicy" if isinstance(env.observation_space, gym.spaces.Dict) else "MlpPolicy"
+    if kind == "ppo":
+        model = PPO(policy, env, n_steps=32, batch_size=32, n_epochs=1, seed=0, device="cpu")
+    else:
+        model = DQN(policy, env, buffer_size=100, learning_starts=10, seed=0, device="cpu")
+    model.learn(32)  # a model saved after training also pickles its training state (`_last_obs`, ...)
+    model.save(path)
+
+
+@pytest.mark.parametrize(("kind", "env_id"), [("ppo", "gym4real/dam-v0"), ("dqn", "gym4real/elevator-v0")])
+def test_no_entry_sb3_writes_is_unpickled_either(kind: str, env_id: str, tmp_path: Path) -> None:
+    clean, crafted, marker = tmp_path / "clean" / "model.zip", tmp_path / "crafted" / "model.zip", tmp_path / "m"
+    clean.parent.mkdir()
+    crafted.parent.mkdir()
+    _saved_model(kind, env_id, clean)
+    crafted.write_bytes(clean.read_bytes())
+    pickled: list[str] = []
+
+    def poison(data: dict[str, Any]) -> None:
+        for key, value in data.items():
+            if isinstance(value, dict) and ":serialized:" in value:
+                value[":serialized:"] = _payload(marker)
+                pickled.append(key)
+
+    _rewrite_data(crafted, poison)
+    assert {"policy_class", "observation_space", "action_space", "lr_schedule", "_last_obs"} <= set(pickled)
+    env = gym.make(env_id)
+    reference, loaded = make_policy(env_id, f"{kind}:{clean}", env), make_policy(env_id, f"{kind}:{crafted}", env)
+    assert not marker.exists()
+    obs, _ = env.reset(seed=3)
+    for _ in range(5):
+        action = loaded(obs)
+        np.testing.assert_array_equal(action, reference(obs))
+        assert env.action_space.contains(action)
+        obs, *_ = env.step(action)
+
+
+def test_bench_refuses_a_crafted_model_and_runs_nothing(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    marker = tmp_path / "marker"
+    model = tmp_path / "model.zip"
+    _saved_model("ppo", "gym4real/dam-v0", model)
+    _rewrite_data(model, lambda d: d.update(hook={":type:": "<class 'x'>", ":serialized:": _payload(marker)}))
+    status = main(["bench", "gym4real/dam-v0", "--policies", f"ppo:{model}", "--episodes", "1", "--quiet"])
+    assert status == 2 and not marker.exists()
+    assert "pickled entry `hook`" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("content", "message"),
+    [
+        (b"not a zip", "not a zip archive"),
+        (None, "has no `data` entry"),
+        (b"{", "not the JSON"),
+    ],
+)
+def test_a_file_that_is_not_a_model_is_a_clear_error(content: bytes | None, message: str, tmp_path: Path) -> None:
+    model = tmp_path / "model.zip"
+    if content == b"not a zip":
+        model.write_bytes(content)
+    else:
+        with zipfile.ZipFile(model, "w") as archive:
+            archive.writestr("data" if content else "other", content or b"")
+    with pytest.raises(PolicyError, match=message):
+        make_policy("gym4real/elevator-v0", f"ppo:{model}", gym.make("gym4real/elevator-v0"))
