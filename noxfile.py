@@ -9,6 +9,8 @@
 
 from __future__ import annotations
 
+import hashlib
+import json
 import os
 from pathlib import Path
 
@@ -24,14 +26,26 @@ nox.options.default_venv_backend = "venv"
 nox.options.sessions = ["lint", "tests"]
 nox.options.error_on_missing_interpreters = False
 
+SHARED_DATA = ROOT.parent / "shared" / "data"  # the data folder beside a developer's checkout (tests and CI)
+
 ENV = {
-    "GYM4REAL_DATA_DIR": os.environ.get("GYM4REAL_DATA_DIR", str(ROOT.parent / "shared" / "data")),
     "GYM4REAL_STRICT_PLUGINS": "1",
     "GYM4REAL_OFFLINE": "1",
     "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl"),
     "OMP_NUM_THREADS": "1",
     "MPLBACKEND": "Agg",
 }
+
+
+def _data_env(session: nox.Session) -> dict[str, str]:
+    """``GYM4REAL_DATA_DIR``: the user's, else ``../shared/data`` when it exists (said aloud), else unset."""
+    if "GYM4REAL_DATA_DIR" in os.environ:
+        return {"GYM4REAL_DATA_DIR": os.environ["GYM4REAL_DATA_DIR"]}
+    if SHARED_DATA.is_dir():
+        session.log(f"GYM4REAL_DATA_DIR is not set: using {SHARED_DATA} (set it to use another data folder)")
+        return {"GYM4REAL_DATA_DIR": str(SHARED_DATA)}
+    session.log("GYM4REAL_DATA_DIR is not set: data files come from the user cache, downloaded when missing")
+    return {}
 
 
 def _test_deps(dist: Path) -> list[str]:
@@ -60,7 +74,9 @@ def tests(session: nox.Session, gymnasium: str) -> None:
     if gymnasium != "latest":
         session.install(f"gymnasium=={gymnasium}", f"-e{CORE}[ray]")
     suites = ["tests", *(str(d / "tests") for d in PACKAGES)]
-    session.run("pytest", "-n", "2", "--dist", "loadfile", *suites, *session.posargs, env=ENV)
+    session.run(
+        "pytest", "-n", "2", "--dist", "loadfile", "-rs", *suites, *session.posargs, env=ENV | _data_env(session)
+    )
 
 
 def _tests_of(dist: Path) -> None:
@@ -71,7 +87,7 @@ def _tests_of(dist: Path) -> None:
         listed = str(session.run("python", "-m", "pip", "list", "--exclude-editable", silent=True) or "")
         if "gym4real" in listed:
             session.error("a gym4real distribution came from an index instead of this checkout")
-        session.run("pytest", str(dist / "tests"), *session.posargs, env=ENV)
+        session.run("pytest", "-rs", str(dist / "tests"), *session.posargs, env=ENV | _data_env(session))
 
     session_fn.__doc__ = f"{dist.name} in a venv of its own with core: its declared dependencies suffice."
     nox.session(name=f"tests-{dist.name.removeprefix('gym4real-')}")(session_fn)
@@ -81,12 +97,42 @@ for _dist in PACKAGES:
     _tests_of(_dist)
 
 
-@nox.session
+def _install_current(session: nox.Session, dists: list[Path]) -> None:
+    """Install ``dists`` editable, skipping those already installed from an unchanged ``pyproject.toml``.
+
+    A stamp in the venv records each installed distribution's ``pyproject.toml``; code changes need no
+    reinstall (editable), a changed dependency list does.
+    """
+    stamp = Path(session.virtualenv.location) / "gym4real-installed.json"
+    installed = json.loads(stamp.read_text()) if stamp.exists() else {}
+    wanted = {d.name: hashlib.sha256((d / "pyproject.toml").read_bytes()).hexdigest() for d in dists}
+    missing = [d for d in dists if installed.get(d.name) != wanted[d.name]]
+    if not missing:
+        session.log(f"reusing the venv: {', '.join(wanted)} already installed")
+        return
+    session.log(f"installing {', '.join(d.name for d in missing)} (pip's progress follows)")
+    session.install(*(f"-e{d}" for d in missing), silent=False)
+    stamp.write_text(json.dumps(installed | wanted))
+
+
+@nox.session(reuse_venv=True)
 def bench(session: nox.Session) -> None:
-    """The main job: `gym4real bench` (args after `--`, default the elevator) with a table and figures."""
-    session.install(*(_editable(d).removesuffix("[rl,mo,offline]") for d in PACKAGES))
+    """The main job: `gym4real bench` (args after `--`, default the elevator) with a table and figures.
+
+    Installs core and the one domain that provides the id (the venv is reused while those are current).
+    """
     args = session.posargs or ["gym4real/elevator-v0"]
-    session.run("gym4real", "bench", *args, env={k: v for k, v in ENV.items() if k != "GYM4REAL_OFFLINE"})
+    env_id = args[0]
+    dist = ROOT / "packages" / f"gym4real-{env_id.split('/', 1)[-1].split('-', 1)[0]}"
+    if env_id.startswith("-") or dist not in DOMAINS:
+        domains = ", ".join(d.name.removeprefix("gym4real-") for d in DOMAINS)
+        session.error(
+            f"the first argument after `--` must be an env id such as gym4real/elevator-v0 (domains: {domains})"
+        )
+    _install_current(session, [CORE, dist])
+    session.run(
+        "gym4real", "bench", *args, env={k: v for k, v in ENV.items() if k != "GYM4REAL_OFFLINE"} | _data_env(session)
+    )
 
 
 @nox.session
@@ -94,12 +140,13 @@ def docs(session: nox.Session) -> None:
     """The docs site: one generated page per env with its `gym4real bench` figures (short benchmarks)."""
     session.install(*(_editable(d).removesuffix("[rl,mo,offline]") for d in PACKAGES), "mkdocs-material>=9.5")
     figures = ROOT / "results" / "docs"
-    ids = session.run("python", "-c", "import gym4real; print(*gym4real.list_envs())", silent=True, env=ENV)
+    env = ENV | _data_env(session)
+    ids = session.run("python", "-c", "import gym4real; print(*gym4real.list_envs())", silent=True, env=env)
     for env_id in str(ids).split():
         out = figures / env_id.replace("/", "_")
-        session.run("gym4real", "bench", env_id, "--episodes", "3", "--out", str(out), "--quiet", env=ENV)
-    session.run("python", "docs/gen_pages.py", "--figures", str(figures), env=ENV)
-    session.run("mkdocs", "build", "--strict", env=ENV)
+        session.run("gym4real", "bench", env_id, "--episodes", "3", "--out", str(out), "--quiet", env=env)
+    session.run("python", "docs/gen_pages.py", "--figures", str(figures), env=env)
+    session.run("mkdocs", "build", "--strict", env=env)
 
 
 @nox.session
@@ -115,7 +162,7 @@ def wheels(session: nox.Session) -> None:
         f"[importlib.import_module('gym4real.' + d) for d in {[d.name.removeprefix('gym4real-') for d in DOMAINS]!r}]; "
         "assert not gym4real.plugin_errors(), gym4real.plugin_errors()"
     )
-    session.run("python", "-c", code, env=ENV)
+    session.run("python", "-c", code, env=ENV | _data_env(session))
 
 
 @nox.session
@@ -128,7 +175,7 @@ def minimal(session: nox.Session) -> None:
         "except gym4real.core.EnvUnavailableError as e:\n    assert 'pip install gym4real-dam' in str(e); print(e)\n"
         "else:\n    raise SystemExit('expected EnvUnavailableError')\n"
     )
-    session.run("python", "-c", code, env=ENV)
+    session.run("python", "-c", code, env=ENV | _data_env(session))
 
 
 @nox.session
