@@ -63,3 +63,14 @@ def test_registration() -> None:
     assert {(e, a, p) for (e, a, p) in reg.trainings if e in ids} == {
         (i, "ppo", p) for i in ids for p in ("paper", "smoke")
     }
+
+
+def test_making_picking_v0_does_not_call_it_out_of_date() -> None:
+    """v0 and v1 are different tasks of the paper: Gymnasium's "consider upgrading to v1" must not show."""
+    import subprocess
+    import sys
+
+    code = "import gymnasium as gym, gym4real; gym.make('gym4real/robofeeder-picking-v0').close()"
+    done = subprocess.run([sys.executable, "-W", "default", "-c", code], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert "out of date" not in done.stderr

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 from gym4real.core.datasets import upstream
 from gym4real.core.hookspecs import hookimpl
 from gym4real.core.specs import BaselineSpec, BenchmarkSpec, DatasetSpec, EnvSpec, TrainingSpec
@@ -10,6 +12,10 @@ DOMAIN = "robofeeder"
 PICKING_V0 = "gym4real/robofeeder-picking-v0"
 PICKING_V1 = "gym4real/robofeeder-picking-v1"
 PLANNING_V0 = "gym4real/robofeeder-planning-v0"
+
+# picking-v0 and picking-v1 are two tasks of the paper (one object; several), not two versions of one task:
+# Gymnasium's "picking-v0 is out of date, consider upgrading to v1" is wrong for them.
+warnings.filterwarnings("ignore", message=f".*{PICKING_V0} is out of date", category=DeprecationWarning)
 
 _COMMIT = "774d5ceb1c218e09e5c6458ead7d4b0b10e2d8ac"
 _REPO = f"https://raw.githubusercontent.com/Daveonwave/gym4ReaL/{_COMMIT}/gym4real/envs/robofeeder"
