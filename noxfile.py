@@ -20,7 +20,10 @@ ROOT = Path(__file__).resolve().parent
 PACKAGES = sorted(p.parent for p in (ROOT / "packages").glob("*/pyproject.toml"))
 DOMAINS = [p for p in PACKAGES if p.name != "gym4real-core"]
 CORE = ROOT / "packages" / "gym4real-core"
-TORCH = "torch==2.13.0"  # the CPU build; a plain `torch` pulls a multi-GB CUDA build
+# The CPU build where the package index serves it (this project's CI machine has it in its wheel house). On
+# the public index for Linux this pin is the multi-GB CUDA build: run nox with
+# PIP_EXTRA_INDEX_URL=https://download.pytorch.org/whl/cpu to get 2.13.0+cpu instead (the README says so).
+TORCH = "torch==2.13.0"
 
 nox.options.default_venv_backend = "venv"
 nox.options.sessions = ["lint", "tests"]

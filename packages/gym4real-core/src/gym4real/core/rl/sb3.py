@@ -15,6 +15,9 @@ import numpy as np
 
 from gym4real.core.errors import ConfigError, PolicyError
 
+#: PyTorch's index of CPU-only wheels.
+TORCH_CPU_INDEX = "https://download.pytorch.org/whl/cpu"
+
 
 def _sb3() -> Any:
     try:
@@ -22,8 +25,9 @@ def _sb3() -> Any:
         import torch
     except ImportError as exc:
         msg = (
-            f"PPO/DQN need the `rl` extra ({exc.name} is missing): "
-            '`pip install torch==2.13.0 && pip install "gym4real-core[rl]"`'
+            f"PPO/DQN need the `rl` extra ({exc.name} is missing): install the CPU build of torch first, "
+            f'`pip install torch --index-url {TORCH_CPU_INDEX}`, then `pip install "gym4real-core[rl]"` '
+            "(a plain `pip install torch` on Linux pulls the multi-GB CUDA build)"
         )
         raise PolicyError(msg) from exc
     torch.set_num_threads(1)
