@@ -175,7 +175,7 @@ def minimal(session: nox.Session) -> None:
     code = (
         "import gym4real; assert gym4real.list_envs() == [], gym4real.list_envs()\n"
         "try:\n    gym4real.make('gym4real/dam-v0')\n"
-        "except gym4real.core.EnvUnavailableError as e:\n    assert 'pip install gym4real-dam' in str(e); print(e)\n"
+        "except gym4real.core.EnvUnavailableError as e:\n    assert 'packages/gym4real-dam`' in str(e); print(e)\n"
         "else:\n    raise SystemExit('expected EnvUnavailableError')\n"
     )
     session.run("python", "-c", code, env=ENV | _data_env(session))

@@ -22,12 +22,23 @@ def test_unknown_id_suggests_the_nearest() -> None:
         gym4real.make("gym4real/elevatr-v0")
 
 
-def test_not_installed_domain_gives_the_pip_install(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_not_installed_domain_gives_the_pip_install_from_this_checkout(monkeypatch: pytest.MonkeyPatch) -> None:
     reg = registry()
     monkeypatch.setattr(reg, "distributions", {k: v for k, v in reg.distributions.items() if k != "dam"})
     monkeypatch.setattr(reg, "envs", {k: v for k, v in reg.envs.items() if not k.startswith("gym4real/dam")})
-    with pytest.raises(EnvUnavailableError, match="pip install gym4real-dam"):
+    dam = Path(__file__).resolve().parents[1] / "packages" / "gym4real-dam"
+    with pytest.raises(EnvUnavailableError) as err:  # this venv has core editable from this checkout
         gym4real.make("gym4real/dam-v0")
+    assert f"`pip install -e {dam}`" in str(err.value)
+
+
+def test_a_core_not_from_a_checkout_gives_both_install_forms(monkeypatch: pytest.MonkeyPatch) -> None:
+    from gym4real.core import install_hint
+
+    monkeypatch.setattr(install_hint, "_core_checkout", lambda: None)
+    hint = install_hint.install_command("gym4real-dam")
+    assert "`pip install ./packages/gym4real-dam` from a gym4real checkout" in hint
+    assert "`pip install gym4real-dam` once it is on PyPI" in hint
 
 
 def test_benchmark_with_callable_and_baseline(tmp_path: Path) -> None:

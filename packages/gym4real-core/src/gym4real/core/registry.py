@@ -241,9 +241,11 @@ def env_spec(env_id: str) -> EnvSpec:
     if failed:
         raise EnvUnavailableError(f"environment `{env_id}` is provided by {failed[0]}")
     if env_id in CANONICAL_IDS or (domain in KNOWN_DOMAINS and domain not in reg.distributions):
+        from gym4real.core.install_hint import install_command
+
         dist = KNOWN_DOMAINS.get(domain, f"gym4real-{domain}")
         raise EnvUnavailableError(
-            f"environment `{env_id}` is provided by `{dist}`, which is not installed: `pip install {dist}`"
+            f"environment `{env_id}` is provided by `{dist}`, which is not installed: {install_command(dist)}"
         )
     near = difflib.get_close_matches(env_id, list(reg.envs), n=3, cutoff=0.5)
     hint = f" Did you mean {', '.join(f'`{n}`' for n in near)}?" if near else ""
