@@ -1,16 +1,24 @@
 """Resolution of data files: explicit folder, ``GYM4REAL_DATA_DIR``, user cache, then download.
 
-Every file is checked against the SHA-256 its plugin registered. A download goes through pooch into
-the user cache (``platformdirs``); pooch writes to a temporary file and moves it into place only
-after the hash matched, so a failed or corrupt download leaves nothing behind.
-``GYM4REAL_OFFLINE=1`` forbids downloads.
+Every file is checked against the SHA-256 its plugin registered. A download goes through pooch into a
+staging folder of the user cache (``platformdirs``) and is moved into place only after its hash
+matched; it must end within an overall deadline (``GYM4REAL_DOWNLOAD_DEADLINE`` seconds, default
+300), since a per-read timeout never stops a server that trickles bytes. A failed, corrupt or late
+download leaves no file and no folder behind; the staging folder of a killed one (its lock is gone) is
+removed by the next download. ``GYM4REAL_OFFLINE=1`` forbids downloads.
 """
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
+import math
 import os
+import shutil
+import time
+import uuid
 from pathlib import Path
+from typing import Any
 
 import platformdirs
 
@@ -20,6 +28,13 @@ from gym4real.core.specs import DatasetSpec
 
 DATA_DIR_ENV = "GYM4REAL_DATA_DIR"
 OFFLINE_ENV = "GYM4REAL_OFFLINE"
+DEADLINE_ENV = "GYM4REAL_DOWNLOAD_DEADLINE"
+#: Seconds a download may take in all, unless ``GYM4REAL_DOWNLOAD_DEADLINE`` says otherwise.
+DEFAULT_DEADLINE = 300.0
+#: Longest wait for one read (s); the deadline, when shorter, bounds it too.
+READ_TIMEOUT = 60.0
+#: Folder of the user cache where downloads are staged (one locked subfolder each).
+STAGING = ".downloading"
 
 _verified: dict[tuple[str, int, int], str] = {}
 
@@ -69,37 +84,60 @@ def _check(spec: DatasetSpec, path: Path, where: str) -> None:
         )
 
 
-def resolve(name: str, data_dir: str | Path | None = None, *, download: bool | None = None) -> Path:
+def download_deadline() -> float:
+    """Seconds a download may take in all: ``GYM4REAL_DOWNLOAD_DEADLINE``, else :data:`DEFAULT_DEADLINE`.
+
+    Raises:
+        DataFileError: The variable is not a positive finite number.
+    """
+    raw = os.environ.get(DEADLINE_ENV, "").strip()
+    if not raw:
+        return DEFAULT_DEADLINE
+    try:
+        value = float(raw)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise DataFileError(f"{DEADLINE_ENV} must be a positive number of seconds (e.g. 600), not {raw!r}")
+    return value
+
+
+def resolve(
+    name: str, data_dir: str | Path | None = None, *, download: bool | None = None, deadline: float | None = None
+) -> Path:
     """Return the local path of a registered data file, downloading it into the cache if needed.
 
     Args:
         name: Registered dataset name (``dam/level/train``).
         data_dir: A folder searched first (the config's ``data_dir``).
         download: Allow a download; defaults to True unless ``GYM4REAL_OFFLINE`` is set.
+        deadline: Seconds the download may take in all; defaults to :func:`download_deadline`.
 
     Raises:
         DataFileError: The file is corrupt, or found nowhere and could not be downloaded; the message
             lists every place searched and the fix.
     """
     spec = dataset(name)
+    if download is None:
+        download = os.environ.get(OFFLINE_ENV, "") in ("", "0")
     searched = []
+    dropped = ""
     for where, folder in _places(data_dir):
         path = folder / spec.path
         searched.append(f"{where} ({path})")
         if path.is_file():
-            if where == "user cache" and sha256_of(path) != spec.sha256:
+            if where == "user cache" and download and sha256_of(path) != spec.sha256:
+                dropped = f"; the corrupt copy in the user cache (sha256 {sha256_of(path)}) was removed"
                 path.unlink()  # our own cache: drop a corrupt copy and fetch it again
                 continue
             _check(spec, path, where)
             return path
-    if download is None:
-        download = os.environ.get(OFFLINE_ENV, "") in ("", "0")
     reason = f"downloads are off ({OFFLINE_ENV} is set)"
     if download:
         try:
-            return _download(spec)
+            return _download(spec, download_deadline() if deadline is None else deadline)
         except Exception as exc:
-            reason = f"download from {spec.url} failed ({type(exc).__name__}: {exc})"
+            reason = f"download from {spec.url} failed ({type(exc).__name__}: {exc}){dropped}"
     raise DataFileError(
         f"data file `{spec.path}` ({spec.name}) not found; searched: {'; '.join(searched)}; {reason}. "
         f"Fix: set {DATA_DIR_ENV} to a folder holding `{spec.path}`, or run `gym4real data fetch "
@@ -107,20 +145,101 @@ def resolve(name: str, data_dir: str | Path | None = None, *, download: bool | N
     )
 
 
-def _download(spec: DatasetSpec) -> Path:
+class DeadlineDownloader:
+    """pooch downloader over HTTP(S) whose whole transfer must end within ``deadline`` seconds.
+
+    requests' ``timeout`` bounds each read, so a server that sends a byte at a time is never cut off.
+    Here each read returns what has arrived (``read1``) and the clock is checked between reads, so a
+    download ends at most one read timeout (``min(READ_TIMEOUT, deadline)``) after its deadline.
+    """
+
+    def __init__(self, deadline: float) -> None:
+        self.deadline = deadline
+
+    def __call__(self, url: str, output_file: str, pooch: Any, check_only: bool = False) -> None:
+        """Write the body of ``url`` into ``output_file`` (pooch's downloader protocol).
+
+        Raises:
+            TimeoutError: The deadline passed before the body was complete.
+        """
+        import requests
+
+        end = time.monotonic() + self.deadline
+        received = 0
+        with requests.get(url, stream=True, timeout=min(READ_TIMEOUT, self.deadline)) as response:
+            response.raise_for_status()
+            with open(output_file, "wb") as out:
+                while block := response.raw.read1(1 << 16, decode_content=True):
+                    if time.monotonic() > end:
+                        raise TimeoutError(
+                            f"not complete within the deadline of {self.deadline:g} s ({received} bytes received); "
+                            f"set {DEADLINE_ENV} to a longer time in seconds"
+                        )
+                    out.write(block)
+                    received += len(block)
+
+
+def _download(spec: DatasetSpec, deadline: float) -> Path:
+    """Download a file into the cache through a locked staging folder; a failure leaves nothing behind."""
+    import filelock
     import pooch
 
-    target = cache_dir() / spec.path
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fetched = pooch.retrieve(
-        spec.url,
-        known_hash=f"sha256:{spec.sha256}",
-        fname=target.name,
-        path=target.parent,
-        downloader=pooch.HTTPDownloader(timeout=60, progressbar=False),
-        progressbar=False,
-    )
-    return Path(fetched)
+    cache = cache_dir()
+    root = cache / STAGING
+    made = _make_dirs(root)
+    name = uuid.uuid4().hex
+    try:
+        _remove_stale_staging(root)
+        with filelock.FileLock(root / f"{name}.lock"):
+            try:
+                fetched = pooch.retrieve(
+                    spec.url,
+                    known_hash=f"sha256:{spec.sha256}",
+                    fname=Path(spec.path).name,
+                    path=root / name,
+                    downloader=DeadlineDownloader(deadline),
+                    progressbar=False,
+                )
+                target = cache / spec.path
+                made += _make_dirs(target.parent)
+                os.replace(fetched, target)
+            finally:
+                shutil.rmtree(root / name, ignore_errors=True)
+    finally:
+        (root / f"{name}.lock").unlink(missing_ok=True)
+        _remove_empty([root, *made])
+    return target
+
+
+def _remove_empty(folders: list[Path]) -> None:
+    """Remove those of ``folders`` that are empty, innermost first."""
+    for folder in sorted(set(folders), key=lambda p: len(p.parts), reverse=True):
+        with contextlib.suppress(OSError):  # not empty (or not there)
+            folder.rmdir()
+
+
+def _make_dirs(folder: Path) -> list[Path]:
+    """Create ``folder`` and its missing parents; return those created, outermost first."""
+    missing = [p for p in (folder, *folder.parents) if not p.exists()][::-1]
+    folder.mkdir(parents=True, exist_ok=True)
+    return missing
+
+
+def _remove_stale_staging(root: Path) -> None:
+    """Remove the staging folders of downloads that died (killed): nobody holds their lock any more."""
+    import filelock
+
+    for lock_path in root.glob("*.lock"):
+        lock = filelock.FileLock(lock_path)
+        try:
+            lock.acquire(timeout=0)
+        except filelock.Timeout:
+            continue  # a download in progress
+        try:
+            shutil.rmtree(root / lock_path.stem, ignore_errors=True)
+        finally:
+            lock.release()
+        lock_path.unlink(missing_ok=True)
 
 
 def upstream(
