@@ -62,14 +62,15 @@ def collect(
     previous = os.environ.get("MINARI_DATASETS_PATH")
     os.environ["MINARI_DATASETS_PATH"] = str(out)
     try:
-        env = minari.DataCollector(gym.make(env_id, **dict(env_kwargs or {})))
+        collected = gym.make(env_id, **dict(env_kwargs or {}))
+        env = minari.DataCollector(collected)
         acting = as_recorded(env.action_space, make_policy(env_id, policy, env))
         for i in range(episodes):
             run_episode(env, acting, seed + i, None)
         name = dataset_id(env_id, policy)
         dataset = env.create_dataset(
             dataset_id=name,
-            eval_env=env_id,
+            eval_env=collected.spec,  # with the overrides: the eval env replays the stored episodes
             algorithm_name=policy,
             author="gym4real",
             description=f"{episodes} episodes of policy `{policy}` on `{env_id}` (seeds {seed}..{seed + episodes - 1})",
