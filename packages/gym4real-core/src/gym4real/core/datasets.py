@@ -36,7 +36,7 @@ READ_TIMEOUT = 60.0
 #: Folder of the user cache where downloads are staged (one locked subfolder each).
 STAGING = ".downloading"
 
-_verified: dict[tuple[str, int, int], str] = {}
+_verified: dict[tuple[str, int, int, int, int], str] = {}
 
 
 def cache_dir() -> Path:
@@ -45,9 +45,12 @@ def cache_dir() -> Path:
 
 
 def sha256_of(path: Path) -> str:
-    """Return the hex SHA-256 of a file, memoised on its path, size and modification time."""
+    """Return the hex SHA-256 of a file, memoised on its path, size, modification and change times and inode.
+
+    A file rewritten in place has a new change time (no user call sets it back), so it is hashed again.
+    """
     st = path.stat()
-    key = (str(path.resolve()), st.st_size, st.st_mtime_ns)
+    key = (str(path.resolve()), st.st_size, st.st_mtime_ns, st.st_ctime_ns, st.st_ino)
     if key not in _verified:
         h = hashlib.sha256()
         with path.open("rb") as f:

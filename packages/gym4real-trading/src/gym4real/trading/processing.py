@@ -11,7 +11,10 @@ Processing, in order:
    has a missing bar is dropped, with the reason (no quotes at all, or the longest gap).
 
 The result (grid and day report) is cached as parquet in ``<user cache>/trading/processed/``, keyed by
-the SHA-256 of the source files and the processing parameters.
+the SHA-256 of the source files and the processing parameters. A cache file holds its key and a
+SHA-256 of its content; one that does not match (altered, damaged, or written for another key) is
+rebuilt. File hashes are memoised in ``<user cache>/trading/hashes.json`` on the file's size,
+modification and change times and inode, so that a file rewritten in place is hashed again.
 """
 
 from __future__ import annotations
@@ -175,21 +178,31 @@ def _hash_memo_path() -> Path:
     return datasets.cache_dir() / "trading" / "hashes.json"
 
 
-def file_sha256(path: Path) -> str:
-    """SHA-256 of a file, memoised on disk by (path, size, mtime) so large HistData files hash once."""
-    st = path.stat()
-    key = str(path.resolve())
-    memo_path = _hash_memo_path()
+def _read_hash_memo() -> dict[str, Any]:
     try:
-        memo = json.loads(memo_path.read_text())
+        memo = json.loads(_hash_memo_path().read_text())
     except (OSError, ValueError):
-        memo = {}
+        return {}
+    return memo if isinstance(memo, dict) else {}
+
+
+def file_sha256(path: Path) -> str:
+    """SHA-256 of a file, memoised on disk so large HistData files hash once.
+
+    The memo holds the file's size, modification and change times and inode: a file rewritten in place
+    changes its change time (which no user call can set back), so it is hashed again.
+    """
+    st = path.stat()
+    stamp = [st.st_size, st.st_mtime_ns, st.st_ctime_ns, st.st_ino]
+    key = str(path.resolve())
+    memo = _read_hash_memo()
     entry = memo.get(key)
-    if entry and entry[0] == st.st_size and entry[1] == st.st_mtime_ns:
-        return str(entry[2])
+    if isinstance(entry, dict) and entry.get("stat") == stamp and isinstance(entry.get("sha256"), str):
+        return entry["sha256"]
     digest = datasets.sha256_of(path)
-    memo[key] = [st.st_size, st.st_mtime_ns, digest]
+    memo[key] = {"stat": stamp, "sha256": digest}
     try:
+        memo_path = _hash_memo_path()
         memo_path.parent.mkdir(parents=True, exist_ok=True)
         tmp = memo_path.with_suffix(f".{os.getpid()}.tmp")
         tmp.write_text(json.dumps(memo))
@@ -274,6 +287,13 @@ def cache_path(key: str) -> Path:
     return datasets.cache_dir() / "trading" / "processed" / f"{key}.parquet"
 
 
+def _content_digest(meta: dict[str, Any], mid: np.ndarray) -> str:
+    """SHA-256 of a cache file's metadata (but its digest) and prices."""
+    h = hashlib.sha256(json.dumps({k: v for k, v in meta.items() if k != "digest"}, sort_keys=True).encode())
+    h.update(np.ascontiguousarray(mid, dtype=np.float64).tobytes())
+    return h.hexdigest()
+
+
 def _save(proc: Processed, path: Path) -> None:
     import pyarrow as pa
     import pyarrow.parquet as pq
@@ -289,7 +309,9 @@ def _save(proc: Processed, path: Path) -> None:
         "sources": proc.sources,
         "spacing_minutes": proc.spacing_minutes,
         "version": PROCESSING_VERSION,
+        "key": proc.key,
     }
+    meta["digest"] = _content_digest(meta, proc.mid)
     table = pa.table({"time": time, "mid": proc.mid}).replace_schema_metadata({"gym4real": json.dumps(meta)})
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(f".{os.getpid()}.tmp")
@@ -297,14 +319,24 @@ def _save(proc: Processed, path: Path) -> None:
     tmp.replace(path)
 
 
-def _load(path: Path) -> Processed:
+def _load(path: Path, key: str) -> Processed:
+    """Read a cache file and verify it.
+
+    Raises:
+        ValueError: The file was written for another key or its content does not match its digest.
+    """
     import pyarrow.parquet as pq
 
     table = pq.read_table(path)
     meta = json.loads(table.schema.metadata[b"gym4real"])
+    mid = table.column("mid").to_numpy()
+    if meta.get("key") != key:
+        raise ValueError(f"written for key {meta.get('key')}, not {key} (another source, version or parameters)")
+    if meta.get("digest") != _content_digest(meta, mid):
+        raise ValueError("its content does not match its SHA-256 (altered or damaged)")
     return Processed(
         first_day=dt.date.fromisoformat(meta["first_day"]),
-        mid=table.column("mid").to_numpy(),
+        mid=mid,
         params=Processing(**meta["params"]),
         kept=[dt.date.fromisoformat(d) for d in meta["kept"]],
         dropped={dt.date.fromisoformat(d): r for d, r in meta["dropped"].items()},
@@ -327,10 +359,10 @@ def load(source: SourceSection, years: Sequence[int], params: Processing, data_d
     proc = None
     if path.is_file():
         try:
-            proc = _load(path)
+            proc = _load(path, key)
             proc.key = key
-        except Exception as exc:  # a corrupt cache file is rebuilt
-            logger.warning("ignoring unreadable cache file %s: %s", path, exc)
+        except Exception as exc:  # a corrupt, altered or foreign cache file is rebuilt
+            logger.warning("rebuilding the cache file %s: %s", path, exc)
     if proc is None:
         names = [p.name for p, _ in files]
         proc = process(read_source(source, [p for p, _ in files]), params, names)
