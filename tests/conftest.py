@@ -2,10 +2,81 @@
 
 from __future__ import annotations
 
+import importlib
 import os
+import sys
+import textwrap
+from collections.abc import Callable, Iterator
 from pathlib import Path
+
+import importlib_metadata
+import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 os.environ.setdefault("GYM4REAL_DATA_DIR", str(ROOT.parent / "shared" / "data"))
 os.environ.setdefault("GYM4REAL_OFFLINE", "1")
 os.environ.setdefault("MUJOCO_GL", "egl")
+
+
+class FakeDistribution(importlib_metadata.Distribution):
+    """An installed distribution held in memory: a name, a version and ``gym4real.plugins`` entry points."""
+
+    def __init__(self, name: str, version: str, entry_points: dict[str, str]) -> None:
+        self._files = {
+            "METADATA": f"Metadata-Version: 2.1\nName: {name}\nVersion: {version}\n",
+            "entry_points.txt": "[gym4real.plugins]\n" + "".join(f"{k} = {v}\n" for k, v in entry_points.items()),
+        }
+
+    def read_text(self, filename: str) -> str | None:
+        return self._files.get(filename)
+
+    def locate_file(self, path: str | os.PathLike[str]) -> Path:
+        return Path(path)
+
+
+@pytest.fixture
+def fake_plugins(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Callable[..., object]]:
+    """Rediscover the plugins with fake distributions beside (or instead of) the installed ones.
+
+    ``fake_plugins((dist, version, {entry_point_name: module}), ..., modules={module: source}, first=True,
+    real=True)`` writes each module under a temporary folder on ``sys.path``, lists the fake distributions' entry
+    points before (``first``) or after the installed ones (none of those if ``real`` is false) and returns the new
+    registry. Non-strict mode; the installed
+    registry, ``sys.modules`` and Gymnasium's registry are restored afterwards.
+    """
+    import gymnasium
+
+    from gym4real.core import registry as reg_mod
+
+    installed = list(reg_mod._entry_points())
+    gym_ids = set(gymnasium.registry)
+    written: list[str] = []
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.delenv("GYM4REAL_STRICT_PLUGINS", raising=False)
+
+    def install(
+        *dists: tuple[str, str, dict[str, str]],
+        modules: dict[str, str] | None = None,
+        first: bool = True,
+        real: bool = True,
+    ) -> reg_mod.Registry:
+        for name, source in (modules or {}).items():
+            path = tmp_path.joinpath(*name.split(".")).with_suffix(".py")
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text(textwrap.dedent(source))
+            written.append(name)
+        importlib.invalidate_caches()
+        fake = [ep for d in dists for ep in FakeDistribution(*d).entry_points.select(group=reg_mod.ENTRY_POINT_GROUP)]
+        others = installed if real else []
+        eps = [*fake, *others] if first else [*others, *fake]
+        monkeypatch.setattr(reg_mod, "_entry_points", lambda: eps)
+        return reg_mod.reload()
+
+    yield install
+    for name in written:
+        sys.modules.pop(name, None)
+    monkeypatch.undo()
+    for env_id in set(gymnasium.registry) - gym_ids:
+        del gymnasium.registry[env_id]
+    reg_mod.reload()
+    reg_mod.register_envs()

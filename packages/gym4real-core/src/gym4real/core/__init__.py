@@ -13,13 +13,10 @@ from gym4real.core.errors import (
     PluginLoadError,
     PolicyError,
 )
-from gym4real.core.hookspecs import hookimpl
+from gym4real.core.hookspecs import PLUGIN_API_VERSION, hookimpl
 from gym4real.core.info import EnvInfo, env_info
 from gym4real.core.registry import list_envs, plugin_errors, register_envs
 from gym4real.core.specs import FLAGS, BaselineSpec, BenchmarkSpec, DatasetSpec, EnvSpec, TrainingSpec
-
-#: Version of the plugin API (the hooks and records); domains pin core to its minor series.
-PLUGIN_API_VERSION = "0.1"
 
 
 def make(env_id: str, **kwargs: Any) -> Any:

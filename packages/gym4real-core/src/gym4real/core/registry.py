@@ -1,7 +1,11 @@
 """Discovery of the ``gym4real.plugins`` entry points, each loaded and called in isolation.
 
-A plugin that fails to import, or whose hook raises or returns bad records, is reported once (logged
-on ``gym4real.plugins`` and returned by :func:`plugin_errors`) and every other plugin still loads.
+A plugin is registered whole or not at all. One that fails to import (any exception but
+KeyboardInterrupt, ``SystemExit`` included), declares a ``plugin_api`` this core does not serve, has
+a hook that raises or returns a bad or repeated record, names an env module that is missing, or
+claims an entry-point name, env id or record that another distribution claims too (then neither is
+registered) is reported once (logged on ``gym4real.plugins`` and returned by :func:`plugin_errors`)
+and every other plugin still loads.
 ``GYM4REAL_STRICT_PLUGINS=1`` turns such failures into a :class:`PluginLoadError`;
 ``GYM4REAL_DISABLE_PLUGINS=wds,robofeeder`` skips plugins by name.
 """
@@ -10,17 +14,20 @@ from __future__ import annotations
 
 import difflib
 import functools
+import itertools
 import logging
 import os
-from collections.abc import Callable, Iterable
+import sys
+from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import importlib_metadata
 import pluggy
 
 from gym4real.core import hookspecs
 from gym4real.core.errors import EnvUnavailableError, PluginLoadError
+from gym4real.core.hookspecs import PLUGIN_API_VERSION
 from gym4real.core.specs import BaselineSpec, BenchmarkSpec, DatasetSpec, EnvSpec, TrainingSpec
 
 ENTRY_POINT_GROUP = "gym4real.plugins"
@@ -50,17 +57,23 @@ logger = logging.getLogger("gym4real.plugins")
 
 @dataclass(frozen=True)
 class PluginError:
-    """A plugin that failed to load (``phase="import"``) or to register (``phase=<hook name>``)."""
+    """A plugin that was not registered, and why.
+
+    ``phase`` is ``"import"``, ``"compatibility"`` (its ``plugin_api`` is not served by this core),
+    ``"hook validation"``, a hook name (the hook raised or returned a bad or repeated record) or
+    ``"conflict"`` (its entry-point name, or a record's id, is claimed by another distribution too).
+    """
 
     plugin: str
     distribution: str
     version: str
     phase: str
     error: str
+    fix: str = ""
 
     def __str__(self) -> str:
-        fix = f"reinstall it with `pip install --force-reinstall {self.distribution}`"
-        if "ModuleNotFoundError" in self.error:
+        fix = self.fix or f"reinstall it with `pip install --force-reinstall {self.distribution}`"
+        if not self.fix and "ModuleNotFoundError" in self.error:
             fix = f"install the missing dependency, or {fix}"
         return (
             f"plugin `{self.plugin}` ({self.distribution} {self.version}) failed in {self.phase}: {self.error}; {fix}"
@@ -76,9 +89,21 @@ class Registry:
     baselines: dict[str, dict[str, BaselineSpec]] = field(default_factory=dict)
     benchmarks: dict[str, BenchmarkSpec] = field(default_factory=dict)
     trainings: dict[tuple[str, str, str], TrainingSpec] = field(default_factory=dict)
-    owners: dict[str, str] = field(default_factory=dict)  # env id or dataset name -> plugin
+    owners: dict[str, str] = field(default_factory=dict)  # env id or record key -> plugin
     distributions: dict[str, tuple[str, str]] = field(default_factory=dict)  # plugin -> (dist, version)
     errors: list[PluginError] = field(default_factory=list)
+    rejected: dict[str, str] = field(default_factory=dict)  # env id of a plugin that was not registered -> plugin
+
+
+Record = EnvSpec | DatasetSpec | BaselineSpec | BenchmarkSpec | TrainingSpec
+
+#: The hooks, in the order they are called, with the records each may return.
+HOOKS: tuple[tuple[str, tuple[type, ...]], ...] = (
+    ("gym4real_register_envs", (EnvSpec,)),
+    ("gym4real_register_datasets", (DatasetSpec,)),
+    ("gym4real_register_baselines", (BaselineSpec,)),
+    ("gym4real_register_benchmarks", (BenchmarkSpec, TrainingSpec)),
+)
 
 
 def _entry_points() -> Iterable[importlib_metadata.EntryPoint]:
@@ -97,92 +122,217 @@ def _describe(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {exc}"
 
 
-def _load_plugins(reg: Registry) -> pluggy.PluginManager:
-    pm = pluggy.PluginManager(hookspecs.PROJECT)
-    pm.add_hookspecs(hookspecs)
-    disabled = _disabled()
-    for ep in sorted(_entry_points(), key=lambda e: e.name):
-        if ep.name in disabled or ep.name in reg.distributions:
-            continue
-        dist = ep.dist.name if ep.dist else KNOWN_DOMAINS.get(ep.name, "?")
-        version = ep.dist.version if ep.dist else "?"
-        reg.distributions[ep.name] = (dist, version)
-        try:
-            pm.register(ep.load(), name=ep.name)
-        except Exception as exc:  # isolation: one broken plugin must not hide the others
-            _record(reg, ep.name, "import", exc)
-    try:
-        pm.check_pending()
-    except pluggy.PluginValidationError as exc:
-        _record(reg, pm.get_name(exc.plugin) or "?", "hook validation", exc)
-    return pm
+def _dist_of(ep: importlib_metadata.EntryPoint) -> tuple[str, str]:
+    if ep.dist is None:
+        return KNOWN_DOMAINS.get(ep.name, "?"), "?"
+    return ep.dist.name, ep.dist.version
+
+
+def _report(reg: Registry, err: PluginError, exc: BaseException | None = None) -> None:
+    reg.errors.append(err)
+    logger.warning("%s", err)
+    if exc is not None:
+        logger.debug("traceback of plugin `%s`", err.plugin, exc_info=exc)
 
 
 def _record(reg: Registry, plugin: str, phase: str, exc: BaseException) -> None:
     dist, version = reg.distributions.get(plugin, (KNOWN_DOMAINS.get(plugin, "?"), "?"))
-    err = PluginError(plugin, dist, version, phase, _describe(exc))
-    reg.errors.append(err)
-    logger.warning("%s", err)
-    logger.debug("traceback of plugin `%s`", plugin, exc_info=exc)
+    _report(reg, PluginError(plugin, dist, version, phase, _describe(exc)), exc)
 
 
-def _collect(
-    reg: Registry,
-    pm: pluggy.PluginManager,
-    hook: str,
-    kinds: tuple[type, ...],
-    add: Callable[[Registry, str, Any], None],
-) -> None:
-    for impl in getattr(pm.hook, hook).get_hookimpls():
+def _api_version(text: object) -> tuple[int, int] | None:
+    parts = text.split(".") if isinstance(text, str) else []
+    return (int(parts[0]), int(parts[1])) if len(parts) == 2 and all(p.isdigit() for p in parts) else None
+
+
+def _incompatibility(module: object, dist: str) -> tuple[str, str] | None:
+    """The error and fix when ``module.plugin_api`` is not served by this core, else None."""
+    declared = getattr(module, "plugin_api", None)
+    wanted = _api_version(declared)
+    major, minor = _api_version(PLUGIN_API_VERSION) or (0, 0)
+    if wanted is None:
+        return (
+            f"declares plugin_api = {declared!r}, expected a string `MAJOR.MINOR`",
+            f"ask the maintainers of {dist} to declare the plugin API it was written for, "
+            f'for example plugin_api = "{PLUGIN_API_VERSION}"',
+        )
+    if wanted[0] == major and wanted[1] <= minor:
+        return None
+    error = f"written for plugin API {declared}, but gym4real-core serves plugin API {PLUGIN_API_VERSION}"
+    if wanted > (major, minor):
+        return (
+            error,
+            f"upgrade gym4real-core to a release that serves plugin API {declared}: `pip install -U gym4real-core`",
+        )
+    return error, f"upgrade {dist} to a release written for plugin API {major}.x: `pip install -U {dist}`"
+
+
+def _load_plugins(reg: Registry) -> pluggy.PluginManager:
+    pm = pluggy.PluginManager(hookspecs.PROJECT)
+    pm.add_hookspecs(hookspecs)
+    disabled = _disabled()
+    by_name: dict[str, dict[tuple[tuple[str, str], str], importlib_metadata.EntryPoint]] = {}
+    for ep in _entry_points():
+        if ep.name not in disabled:
+            by_name.setdefault(ep.name, {}).setdefault((_dist_of(ep), ep.value), ep)
+    for name in sorted(by_name):
+        eps = list(by_name[name].values())
+        reg.distributions[name] = _dist_of(eps[0])
+        if len(eps) > 1:
+            _name_conflict(reg, name, eps)
+            continue
+        # isolation: one broken plugin must not hide the others, nor exit the interpreter
         try:
-            records = list(impl.function() or ())
-            for rec in records:
-                if not isinstance(rec, kinds):
+            module = eps[0].load()
+        except KeyboardInterrupt:
+            raise
+        except BaseException as exc:
+            _record(reg, name, "import", exc)
+            continue
+        dist, version = reg.distributions[name]
+        if not hasattr(module, "plugin_api"):
+            msg = "plugin `%s` (%s %s) declares no `plugin_api`; loaded as written for plugin API %s"
+            logger.warning(msg, name, dist, version, PLUGIN_API_VERSION)
+        elif problem := _incompatibility(module, dist):
+            _report(reg, PluginError(name, dist, version, "compatibility", *problem))
+            continue
+        try:
+            pm.register(module, name=name)
+        except pluggy.PluginValidationError as exc:
+            _record(reg, name, "hook validation", exc)
+    while True:  # hooks that are not part of the API: report the plugin and drop it
+        try:
+            pm.check_pending()
+            return pm
+        except pluggy.PluginValidationError as exc:
+            _record(reg, pm.get_name(exc.plugin) or "?", "hook validation", exc)
+            pm.unregister(exc.plugin)
+
+
+def _name_conflict(reg: Registry, name: str, eps: list[importlib_metadata.EntryPoint]) -> None:
+    """Report every distribution that provides the entry point ``name``; none of them is loaded."""
+    for ep in eps:
+        dist, version = _dist_of(ep)
+        others = [(_dist_of(o), o.value) for o in eps if o is not ep]
+        also = ", ".join(f"{d} {v} (`{value}`)" for (d, v), value in others)
+        uninstall = " or ".join(f"`pip uninstall {d}`" for d in [*(d for (d, _), _ in others), dist])
+        error = f"entry point `{name}` (`{ep.value}`) is also provided by {also}"
+        _report(reg, PluginError(name, dist, version, "conflict", error, f"keep only one of them: {uninstall}"))
+
+
+def _key(rec: Record) -> str:
+    """The name a record claims: an env id, ``dataset:<name>``, ``baseline:<id>:<name>``, ..."""
+    if isinstance(rec, EnvSpec):
+        return rec.id
+    if isinstance(rec, DatasetSpec):
+        return "dataset:" + rec.name
+    if isinstance(rec, BaselineSpec):
+        return f"baseline:{rec.env_id}:{rec.name}"
+    if isinstance(rec, BenchmarkSpec):
+        return "benchmark:" + rec.env_id
+    return f"training:{rec.env_id}:{rec.algo}:{rec.preset}"
+
+
+def _find_module(name: str) -> list[str] | None:
+    """The submodule search path of module ``name`` ([] for a plain module), or None if it cannot be found.
+
+    Only parent packages already imported are looked into; nothing is executed.
+    """
+    if name in sys.modules:
+        return list(getattr(sys.modules[name], "__path__", []))
+    parent, _, _ = name.rpartition(".")
+    path = _find_module(parent) if parent else None
+    if parent and not path:
+        return None
+    for finder in sys.meta_path:
+        find_spec = getattr(finder, "find_spec", None)
+        spec = find_spec(name, path) if find_spec else None
+        if spec is not None:
+            return list(spec.submodule_search_locations or [])
+    return None
+
+
+def _check_entry_points(spec: EnvSpec) -> None:
+    for what, target in (("entry point", spec.entry_point), ("vector entry point", spec.vector_entry_point)):
+        module = (target or "").partition(":")[0]
+        if module and _find_module(module) is None:
+            raise ModuleNotFoundError(f"the {what} `{target}` of `{spec.id}` names module `{module}`, which is missing")
+
+
+def _records(reg: Registry, plugin: str, hooks: dict[tuple[str, str], Any]) -> list[Record] | None:
+    """Every record of one plugin, or None (and a reported error) if any of its hooks fails: all or nothing."""
+    records: list[Record] = []
+    for hook, kinds in HOOKS:
+        impl = hooks.get((plugin, hook))
+        try:
+            for returned in (impl.function() or ()) if impl else ():
+                if not isinstance(returned, kinds):
                     names = " or ".join(k.__name__ for k in kinds)
-                    raise TypeError(f"{hook} returned {type(rec).__name__}, expected {names}")
-            for rec in records:
-                add(reg, impl.plugin_name, rec)
-        except Exception as exc:
-            _record(reg, impl.plugin_name, hook, exc)
+                    raise TypeError(f"{hook} returned {type(returned).__name__}, expected {names}")
+                rec = cast(Record, returned)
+                if isinstance(rec, EnvSpec):
+                    reg.rejected[rec.id] = plugin  # until the plugin is registered
+                    _check_entry_points(rec)
+                if any(_key(rec) == _key(r) for r in records):
+                    raise ValueError(f"`{_key(rec)}` is returned twice")
+                records.append(rec)
+        except KeyboardInterrupt:
+            raise
+        except BaseException as exc:
+            _record(reg, plugin, hook, exc)
+            return None
+    return records
 
 
-def _claim(reg: Registry, key: str, plugin: str) -> None:
-    other = reg.owners.setdefault(key, plugin)
-    if other != plugin:
-        raise ValueError(f"`{key}` is registered by both plugin `{other}` and plugin `{plugin}`")
-
-
-def _add_env(reg: Registry, plugin: str, spec: EnvSpec) -> None:
-    _claim(reg, spec.id, plugin)
-    reg.envs[spec.id] = spec
-
-
-def _add_dataset(reg: Registry, plugin: str, spec: DatasetSpec) -> None:
-    _claim(reg, "dataset:" + spec.name, plugin)
-    reg.datasets[spec.name] = spec
-
-
-def _add_baseline(reg: Registry, plugin: str, spec: BaselineSpec) -> None:
-    _claim(reg, f"baseline:{spec.env_id}:{spec.name}", plugin)
-    reg.baselines.setdefault(spec.env_id, {})[spec.name] = spec
-
-
-def _add_benchmark(reg: Registry, plugin: str, spec: BenchmarkSpec | TrainingSpec) -> None:
-    if isinstance(spec, BenchmarkSpec):
-        _claim(reg, "benchmark:" + spec.env_id, plugin)
-        reg.benchmarks[spec.env_id] = spec
+def _add(reg: Registry, plugin: str, rec: Record) -> None:
+    reg.owners[_key(rec)] = plugin
+    if isinstance(rec, EnvSpec):
+        reg.rejected.pop(rec.id, None)
+        reg.envs[rec.id] = rec
+    elif isinstance(rec, DatasetSpec):
+        reg.datasets[rec.name] = rec
+    elif isinstance(rec, BaselineSpec):
+        reg.baselines.setdefault(rec.env_id, {})[rec.name] = rec
+    elif isinstance(rec, BenchmarkSpec):
+        reg.benchmarks[rec.env_id] = rec
     else:
-        _claim(reg, f"training:{spec.env_id}:{spec.algo}:{spec.preset}", plugin)
-        reg.trainings[(spec.env_id, spec.algo, spec.preset)] = spec
+        reg.trainings[(rec.env_id, rec.algo, rec.preset)] = rec
+
+
+def _clashes(reg: Registry, records: dict[str, list[Record]]) -> set[str]:
+    """Report each plugin that claims a key another plugin claims too (naming both); return their names."""
+    claims: dict[str, list[str]] = {}
+    for plugin, recs in records.items():
+        for rec in recs:
+            claims.setdefault(_key(rec), []).append(plugin)
+    clashes: dict[str, dict[str, list[str]]] = {}
+    for key, owners in claims.items():
+        for plugin, other in itertools.permutations(owners, 2):
+            clashes.setdefault(plugin, {}).setdefault(other, []).append(key)
+    for plugin, others in sorted(clashes.items()):
+        dist, version = reg.distributions[plugin]
+        also = "; ".join(
+            f"{', '.join(f'`{k}`' for k in keys)} also registered by plugin `{o}` ({' '.join(reg.distributions[o])})"
+            for o, keys in sorted(others.items())
+        )
+        uninstall = " or ".join(f"`pip uninstall {d}`" for d in [*(reg.distributions[o][0] for o in others), dist])
+        _report(reg, PluginError(plugin, dist, version, "conflict", also, f"keep only one of them: {uninstall}"))
+    return set(clashes)
 
 
 def _discover() -> Registry:
+    """Load the plugins and register each one whose hooks all succeed and that claims nothing another claims."""
     reg = Registry()
     pm = _load_plugins(reg)
-    _collect(reg, pm, "gym4real_register_envs", (EnvSpec,), _add_env)
-    _collect(reg, pm, "gym4real_register_datasets", (DatasetSpec,), _add_dataset)
-    _collect(reg, pm, "gym4real_register_baselines", (BaselineSpec,), _add_baseline)
-    _collect(reg, pm, "gym4real_register_benchmarks", (BenchmarkSpec, TrainingSpec), _add_benchmark)
+    hooks = {(impl.plugin_name, hook): impl for hook, _ in HOOKS for impl in getattr(pm.hook, hook).get_hookimpls()}
+    records: dict[str, list[Record]] = {}
+    for plugin in sorted(name for name, _ in pm.list_name_plugin()):
+        if (recs := _records(reg, plugin, hooks)) is not None:
+            records[plugin] = recs
+    clashing = _clashes(reg, records)
+    for plugin, recs in records.items():
+        for rec in recs if plugin not in clashing else ():
+            _add(reg, plugin, rec)
     return reg
 
 
@@ -216,6 +366,21 @@ def plugin_errors() -> list[PluginError]:
     return list(_cached().errors)
 
 
+def installed_distributions() -> list[tuple[str, str]]:
+    """Return ``(name, version)`` of gym4real-core, then of every other installed gym4real distribution.
+
+    A gym4real distribution is one named ``gym4real-*`` or one that provides a ``gym4real.plugins`` entry
+    point (third-party plugins included); sorted by name after core.
+    """
+    found: dict[str, str] = {}
+    for dist in importlib_metadata.distributions():
+        name = dist.name or ""
+        ours = name.lower().replace("_", "-").startswith("gym4real-")
+        if ours or any(ep.group == ENTRY_POINT_GROUP for ep in dist.entry_points):
+            found.setdefault(name, dist.version)  # the first on sys.path is the one imported
+    return sorted(found.items(), key=lambda item: (item[0] != "gym4real-core", item[0]))
+
+
 def list_envs(*, strict: bool | None = None) -> list[str]:
     """Return the sorted ids of every installed environment (never raises for a plugin unless strict)."""
     return sorted(registry(strict=strict).envs)
@@ -237,7 +402,7 @@ def env_spec(env_id: str) -> EnvSpec:
     if env_id in reg.envs:
         return reg.envs[env_id]
     domain = domain_of(env_id)
-    failed = [e for e in reg.errors if e.plugin == domain]
+    failed = [e for e in reg.errors if e.plugin in (domain, reg.rejected.get(env_id))]
     if failed:
         raise EnvUnavailableError(f"environment `{env_id}` is provided by {failed[0]}")
     if env_id in CANONICAL_IDS or (domain in KNOWN_DOMAINS and domain not in reg.distributions):

@@ -6,6 +6,9 @@ from gym4real.core.datasets import upstream
 from gym4real.core.hookspecs import hookimpl
 from gym4real.core.specs import BaselineSpec, BenchmarkSpec, DatasetSpec, EnvSpec, TrainingSpec
 
+#: The gym4real plugin API this module is written for (checked against gym4real-core's PLUGIN_API_VERSION).
+plugin_api = "0.1"
+
 ENV_ID = "gym4real/microgrid-v0"
 DOMAIN = "microgrid"
 COMMIT = "774d5ceb1c218e09e5c6458ead7d4b0b10e2d8ac"

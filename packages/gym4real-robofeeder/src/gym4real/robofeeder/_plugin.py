@@ -8,6 +8,9 @@ from gym4real.core.datasets import upstream
 from gym4real.core.hookspecs import hookimpl
 from gym4real.core.specs import BaselineSpec, BenchmarkSpec, DatasetSpec, EnvSpec, TrainingSpec
 
+#: The gym4real plugin API this module is written for (checked against gym4real-core's PLUGIN_API_VERSION).
+plugin_api = "0.1"
+
 DOMAIN = "robofeeder"
 PICKING_V0 = "gym4real/robofeeder-picking-v0"
 PICKING_V1 = "gym4real/robofeeder-picking-v1"

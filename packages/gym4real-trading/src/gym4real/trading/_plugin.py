@@ -5,6 +5,9 @@ from __future__ import annotations
 from gym4real.core.hookspecs import hookimpl
 from gym4real.core.specs import BaselineSpec, BenchmarkSpec, DatasetSpec, EnvSpec, TrainingSpec
 
+#: The gym4real plugin API this module is written for (checked against gym4real-core's PLUGIN_API_VERSION).
+plugin_api = "0.1"
+
 ENV_ID = "gym4real/trading-v0"
 PRESETS = (
     "default",
