@@ -131,6 +131,21 @@ def _cmd_dataset(args: argparse.Namespace) -> None:
     print(f"Minari dataset written to {path} (load it with MINARI_DATASETS_PATH={args.out})")
 
 
+class _Versions(argparse.Action):
+    """``--version``: every installed gym4real distribution and its version, then exit."""
+
+    def __init__(self, option_strings: Sequence[str], dest: str, **kwargs: Any) -> None:
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)
+
+    def __call__(self, parser: argparse.ArgumentParser, *args: Any) -> None:
+        from gym4real.core.hookspecs import PLUGIN_API_VERSION
+        from gym4real.core.registry import installed_distributions
+
+        for name, version in installed_distributions():
+            print(f"{name} {version}" + (f" (plugin API {PLUGIN_API_VERSION})" if name == "gym4real-core" else ""))
+        parser.exit()
+
+
 #: What the command trusts, printed under ``--help``.
 TRUST = (
     "Trusted: the installed gym4real plugins (Python packages you installed). Data, never run as code: configs, "
@@ -143,6 +158,7 @@ def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="gym4real", description="Realistic RL environments with the Gymnasium API.", epilog=TRUST
     )
+    p.add_argument("--version", action=_Versions, help="list the installed gym4real distributions and exit")
     sub = p.add_subparsers(dest="command", required=True)
     sub.add_parser("list", help="list the installed environments").set_defaults(run=_cmd_list)
     info = sub.add_parser("info", help="describe an environment")
