@@ -5,6 +5,7 @@
 * ``wheels``: build every wheel, install them into a fresh venv, smoke-test each domain.
 * ``minimal``: core alone lists no env and names the pip install of a missing domain.
 * ``lint`` (ruff) and ``typecheck`` (mypy).
+* ``release -- <dist>`` and ``compat -- <dist>``: release checks of one distribution (RELEASING.md).
 """
 
 from __future__ import annotations
@@ -194,3 +195,22 @@ def typecheck(session: nox.Session) -> None:
     """mypy over every package's sources."""
     session.install("mypy", "types-PyYAML", *(f"-e{d}" for d in PACKAGES))
     session.run("mypy", *(str(d / "src" / "gym4real") for d in PACKAGES))
+
+
+def _release_script(session: nox.Session, command: str) -> None:
+    if len(session.posargs) != 1:
+        session.error(f"usage: nox -s {command} -- <dist> (core, dam, elevator, microgrid, robofeeder, trading, wds)")
+    session.install("build>=1.2", "twine>=6", "hatchling>=1.26", "packaging>=24")
+    session.run("python", "scripts/release.py", command, *session.posargs, env=ENV)
+
+
+@nox.session
+def release(session: nox.Session) -> None:
+    """Check one distribution for release, no upload (`-- wds`): version, changelog, build, twine, wheel tests."""
+    _release_script(session, "release")
+
+
+@nox.session
+def compat(session: nox.Session) -> None:
+    """One domain's tests against every core release in its range and core at HEAD (`-- dam`)."""
+    _release_script(session, "compat")
