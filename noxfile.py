@@ -201,7 +201,7 @@ def _release_script(session: nox.Session, command: str) -> None:
     if len(session.posargs) != 1:
         session.error(f"usage: nox -s {command} -- <dist> (core, dam, elevator, microgrid, robofeeder, trading, wds)")
     session.install("build>=1.2", "twine>=6", "hatchling>=1.26", "packaging>=24")
-    session.run("python", "scripts/release.py", command, *session.posargs, env=ENV)
+    session.run("python", "scripts/release.py", command, *session.posargs, env=ENV | _data_env(session))
 
 
 @nox.session

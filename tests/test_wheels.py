@@ -45,6 +45,14 @@ def test_every_distribution_builds(wheels: dict[str, Path]) -> None:
     assert sorted(wheels) == sorted(p.name for p in PACKAGES)
 
 
+def test_every_wheel_carries_the_licence(wheels: dict[str, Path]) -> None:
+    for dist, wheel in wheels.items():
+        with zipfile.ZipFile(wheel) as zf:
+            licences = [n for n in zf.namelist() if n.endswith(".dist-info/licenses/LICENSE")]
+            assert licences, dist
+            assert "Apache License" in zf.read(licences[0]).decode()
+
+
 def test_domain_wheels_hold_only_their_folder(wheels: dict[str, Path]) -> None:
     for dist, wheel in wheels.items():
         files = _modules(wheel)
