@@ -176,14 +176,14 @@ def _load_plugins(reg: Registry) -> pluggy.PluginManager:
         if ep.name not in disabled:
             by_name.setdefault(ep.name, {}).setdefault((_dist_of(ep), ep.value), ep)
     for name in sorted(by_name):
-        eps = list(by_name[name].values())
-        reg.distributions[name] = _dist_of(eps[0])
-        if len(eps) > 1:
-            _name_conflict(reg, name, eps)
+        claimants = [(dist, ep) for (dist, _), ep in by_name[name].items()]
+        reg.distributions[name] = claimants[0][0]
+        if len(claimants) > 1:
+            _name_conflict(reg, name, claimants)
             continue
         # isolation: one broken plugin must not hide the others, nor exit the interpreter
         try:
-            module = eps[0].load()
+            module = claimants[0][1].load()
         except KeyboardInterrupt:
             raise
         except BaseException as exc:
@@ -209,11 +209,12 @@ def _load_plugins(reg: Registry) -> pluggy.PluginManager:
             pm.unregister(exc.plugin)
 
 
-def _name_conflict(reg: Registry, name: str, eps: list[importlib_metadata.EntryPoint]) -> None:
+def _name_conflict(
+    reg: Registry, name: str, claimants: list[tuple[tuple[str, str], importlib_metadata.EntryPoint]]
+) -> None:
     """Report every distribution that provides the entry point ``name``; none of them is loaded."""
-    for ep in eps:
-        dist, version = _dist_of(ep)
-        others = [(_dist_of(o), o.value) for o in eps if o is not ep]
+    for (dist, version), ep in claimants:
+        others = [(d, o.value) for d, o in claimants if o is not ep]
         also = ", ".join(f"{d} {v} (`{value}`)" for (d, v), value in others)
         uninstall = " or ".join(f"`pip uninstall {d}`" for d in [*(d for (d, _), _ in others), dist])
         error = f"entry point `{name}` (`{ep.value}`) is also provided by {also}"
@@ -262,6 +263,7 @@ def _check_entry_points(spec: EnvSpec) -> None:
 def _records(reg: Registry, plugin: str, hooks: dict[tuple[str, str], Any]) -> list[Record] | None:
     """Every record of one plugin, or None (and a reported error) if any of its hooks fails: all or nothing."""
     records: list[Record] = []
+    keys: set[str] = set()
     for hook, kinds in HOOKS:
         impl = hooks.get((plugin, hook))
         try:
@@ -273,8 +275,9 @@ def _records(reg: Registry, plugin: str, hooks: dict[tuple[str, str], Any]) -> l
                 if isinstance(rec, EnvSpec):
                     reg.rejected[rec.id] = plugin  # until the plugin is registered
                     _check_entry_points(rec)
-                if any(_key(rec) == _key(r) for r in records):
-                    raise ValueError(f"`{_key(rec)}` is returned twice")
+                if (key := _key(rec)) in keys:
+                    raise ValueError(f"`{key}` is returned twice")
+                keys.add(key)
                 records.append(rec)
         except KeyboardInterrupt:
             raise
