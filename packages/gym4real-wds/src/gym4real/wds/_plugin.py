@@ -62,7 +62,7 @@ def gym4real_register_envs() -> list[EnvSpec]:
             entry_point="gym4real.wds.env:WDSEnv",
             description="Anytown water network on EPANET: switch 2 pumps hourly for a week (DSR vs tank overflow)",
             flags=frozenset({"continuous_states", "partially_controllable", "imitation_learning", "multi_objective"}),
-            presets=("default", "train", "validation", "test"),
+            presets=("default", "hourly_hydraulics", "train", "validation", "test"),
             datasets=("wds/anytown", "wds/demand/catalogue", *(f"wds/demand/{s}" for s in PROFILES)),
             info_provider="gym4real.wds.engine:engine_info",
         )

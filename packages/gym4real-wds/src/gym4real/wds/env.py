@@ -91,6 +91,8 @@ class WDSEnv(gym.Env[np.ndarray, np.int64]):
 
     1. Stepping (``fixes.fixed_interval``): corrected, one step per ``decision_interval`` with EPANET's
        intermediate events (tanks filling or draining) handled inside and DSR / OVF time-weighted;
+       EPANET integrates tank levels (explicit Euler) every ``hydraulic_step`` = 600 s, within 0.2 m of a
+       converged 60 s run over a week (preset ``hourly_hydraulics``: 3600 s, 1.1-1.6 m off);
        upstream, one step per EPANET event with the hydraulic step clamped by the file's 600 s report step,
        so ~1,009+ steps of variable duration, observation mixing tank levels at t + dt with pressures at t,
        and truncation at the solve at t = duration.
