@@ -320,6 +320,42 @@ def test_demand_estimate_is_per_episode_and_stale_upstream() -> None:
         e.close()
 
 
+# The reference's WaterDemandPattern.draw_pattern (run at commit 774d5ce on these files): bucket, file and
+# week column of the training draws after seeding NumPy with 42 (the constructor's seed) or 7 (reset(seed=7)).
+REFERENCE_DRAWS = {
+    42: [
+        ("normal", "interval_0_075-0_5", "47"),
+        ("stressful", "interval_0_1-0_6", "43"),
+        ("normal", "interval_0_05-0_5", "18"),
+        ("stressful", "interval_0_075-0_6", "44"),
+        ("stressful", "interval_0_1-0_6", "1"),
+        ("stressful", "interval_0_025-0_6", "27"),
+    ],
+    7: [
+        ("normal", "interval_0_01-0_55", "26"),
+        ("stressful", "interval_0_1-0_6", "21"),
+        ("normal", "interval_0_075-0_5", "47"),
+        ("normal", "interval_0_025-0_55", "43"),
+        ("stressful", "interval_0_1-0_6", "0"),
+        ("normal", "interval_0_025-0_5", "26"),
+    ],
+}
+
+
+@pytest.mark.parametrize("seed", sorted(REFERENCE_DRAWS))
+def test_upstream_training_draws_are_the_references(seed: int) -> None:
+    """Weeks are drawn by position in the file, whose columns are in text order ("0", "1", "10", ...)."""
+    e = WDSEnv(fidelity="upstream", seed=42)
+    try:
+        for k, (bucket, stem, week) in enumerate(REFERENCE_DRAWS[seed]):
+            _, info = e.reset(seed=seed if k == 0 and seed != 42 else None)
+            assert info["profile"] == f"train/{bucket}/{stem}/{week}"
+            column = pd.read_csv(gym4real.core.datasets.resolve(f"wds/demand/{stem}"), index_col=0)[week]
+            np.testing.assert_array_equal(e._pattern, column.to_numpy())
+    finally:
+        e.close()
+
+
 def test_ewma_estimate_matches_pandas() -> None:
     test = pd.read_csv(gym4real.core.datasets.resolve("wds/demand/test1000"))
     ewma = test["7"].ewm(span=6, adjust=True).mean()

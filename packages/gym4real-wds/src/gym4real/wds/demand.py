@@ -3,8 +3,10 @@
 Training profiles come from 33 CSV files (168 hourly rows x 54 weekly columns each, plus an index
 column) sorted into the buckets ``normal`` / ``stressful`` / ``extreme`` by the catalogue
 ``anytown_demands.yaml``; the test set is ``test1000.csv`` (168 rows x 1000 columns, no index column).
-Weeks are ordered by their column name (``"0"``, ``"1"``, ...; the files store them in lexicographic
-order). Values are kept as published, including the small negative multipliers of some files.
+Training weeks keep the files' column order, which is lexicographic (``"0"``, ``"1"``, ``"10"``, ...): the
+reference draws a week by its position in the file, and the env draws the same position; ``train_weeks``
+holds the column names. Test profiles are ordered by name (``profile_index`` k is the column named ``k``).
+Values are kept as published, including the small negative multipliers of some files.
 Everything is read once per process and per file.
 """
 
@@ -30,13 +32,14 @@ class Profiles:
 
     buckets: dict[str, tuple[str, ...]]
     train: dict[str, np.ndarray]
+    train_weeks: dict[str, tuple[int, ...]]
     test: np.ndarray
     low: float
     high: float
 
 
-def _read_matrix(path: Path, index_column: bool) -> np.ndarray:
-    """Read one profile CSV into an (hours, weeks) array with the weeks sorted by column name."""
+def _read_matrix(path: Path, index_column: bool) -> tuple[np.ndarray, tuple[int, ...]]:
+    """Read one profile CSV into an (hours, weeks) array in the file's column order, and the column names."""
     what = f"demand profile file `{path}`"
     try:
         with path.open(encoding="utf-8") as f:
@@ -62,9 +65,9 @@ def _read_matrix(path: Path, index_column: bool) -> np.ndarray:
         raise DataFileError(msg)
     if not np.isfinite(data).all():
         raise DataFileError(f"{what} holds non-numeric or infinite multipliers")
-    out = np.ascontiguousarray(data[:, np.argsort(weeks, kind="stable")])
+    out = np.ascontiguousarray(data)
     out.setflags(write=False)
-    return out
+    return out, tuple(weeks)
 
 
 def _read_catalogue(path: Path) -> dict[str, tuple[str, ...]]:
@@ -88,12 +91,16 @@ def dataset_key(file_name: str) -> str:
 def _load(paths: tuple[tuple[str, str], ...], catalogue: str) -> Profiles:
     buckets = _read_catalogue(Path(catalogue))
     files = dict(paths)
-    train = {name: _read_matrix(Path(files[name]), index_column=True) for b in buckets.values() for name in b}
-    test = _read_matrix(Path(files["test1000.csv"]), index_column=False)
+    read = {name: _read_matrix(Path(files[name]), index_column=True) for b in buckets.values() for name in b}
+    train = {name: matrix for name, (matrix, _) in read.items()}
+    test, names = _read_matrix(Path(files["test1000.csv"]), index_column=False)
+    test = np.ascontiguousarray(test[:, np.argsort(names, kind="stable")])
+    test.setflags(write=False)
     values = [test, *train.values()]
     return Profiles(
         buckets=buckets,
         train=train,
+        train_weeks={name: weeks for name, (_, weeks) in read.items()},
         test=test,
         low=float(min(v.min() for v in values)),
         high=float(max(v.max() for v in values)),

@@ -350,8 +350,9 @@ class WDSEnv(gym.Env[np.ndarray, np.int64]):
         bucket = demand.BUCKETS[int(rng.choice(3, p=[probs.normal, probs.stressful, probs.extreme]))]
         files = prof.buckets[bucket]
         name = files[int(draw(len(files)))]
-        week = int(draw(prof.train[name].shape[1]))
-        return prof.train[name][:, week], f"train/{bucket}/{Path(name).stem}/{week}"
+        column = int(draw(prof.train[name].shape[1]))  # by position in the file, as the reference
+        week = prof.train_weeks[name][column]
+        return prof.train[name][:, column], f"train/{bucket}/{Path(name).stem}/{week}"
 
     # -- gymnasium API -----------------------------------------------------------------------------
 
