@@ -74,6 +74,9 @@ def test_codes_match_the_toolkit() -> None:
         "INITSTATUS",
         "FLOW",
         "STATUS",
+        "SETTING",
+        "LOWLEVEL",
+        "HILEVEL",
         "DURATION",
         "HYDSTEP",
         "PATTERNSTEP",
@@ -102,11 +105,13 @@ def test_engine_info_is_reported() -> None:
 
 
 @pytest.mark.skipif(importlib.util.find_spec("epyt") is None, reason="epyt (the fallback engine) is not installed")
-@pytest.mark.parametrize("fidelity", ["corrected", "upstream"])
-def test_fallback_engine_gives_identical_results(fidelity: str) -> None:
+@pytest.mark.parametrize(
+    ("fidelity", "pump_control"), [("corrected", "agent"), ("upstream", "agent"), ("corrected", "controls")]
+)
+def test_fallback_engine_gives_identical_results(fidelity: str, pump_control: str) -> None:
     runs = []
     for engine in ("owa-epanet", "epyt"):
-        e = WDSEnv(engine=engine, fidelity=fidelity)
+        e = WDSEnv(engine=engine, fidelity=fidelity, pump_control=pump_control)
         assert e.engine_label.startswith(engine)
         obs, _ = e.reset(seed=4, options={"profile_index": 11})
         trace = [obs]

@@ -18,6 +18,11 @@ class TankLevelRule:
     above ``high``, and otherwise keeps its previous status. Levels are read from the observation (tanks
     come first); pumps start at their initial status in the network file; pumps without a rule keep it.
 
+    The rule acts at the env's decisions (hourly), so it approximates the controls: EPANET executing them
+    switches a pump the moment its tank crosses a level, the rule at the next decision, and the tanks
+    overshoot. Over a week of Anytown test profiles 0-19 the tank levels drift 4.6-7.8 m from EPANET's,
+    the DSR up to 0.9 %. The exact expert is the env with ``pump_control="controls"``.
+
     Args:
         env: The WDS environment; its ``pump_rules`` come from the network file, else from the config.
     """

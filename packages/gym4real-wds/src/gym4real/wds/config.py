@@ -158,6 +158,14 @@ class WDSConfig(EnvConfig):
         ],
         description="Tank-level rules of the `default` baseline when the network's [CONTROLS] holds none.",
     )
+    pump_control: Literal["agent", "controls"] = Field(
+        "agent",
+        description="`agent`: the action switches the pumps; the network's pump controls and rules are disabled. "
+        "`controls`: EPANET executes the network's pump controls itself all episode (active ones as they are; "
+        "else the tank-level rule of `[CONTROLS]`, commented out or not, or `default_rule`), switching a pump "
+        "the moment its tank crosses a level; the action is checked but not applied. The paper's Default expert, "
+        "which the `default` baseline approximates with hourly decisions.",
+    )
     seed: int = Field(42, description="Seed of the upstream mode's draws until `reset(seed=...)` re-seeds them.")
     fixes: FixesSection = FixesSection()
 

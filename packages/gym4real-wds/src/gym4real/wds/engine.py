@@ -41,7 +41,8 @@ ELEVATION, DEMAND, HEAD, PRESSURE = 0, 9, 10, 11
 INIT_FLOWS = 10  # EN_initH flag: re-initialise link flows, do not save results
 TANKLEVEL, TANKDIAM, MINVOLUME, VOLCURVE, MINLEVEL, MAXLEVEL, TANKVOLUME, MAXVOLUME = 8, 17, 18, 19, 20, 21, 24, 25
 DEMANDFLOW, FULLDEMAND = 31, 32
-INITSTATUS, FLOW, STATUS, PUMP_POWER = 4, 8, 11, 18
+INITSTATUS, FLOW, STATUS, SETTING, PUMP_POWER = 4, 8, 11, 12, 18
+LOWLEVEL, HILEVEL = 0, 1  # simple control types
 DURATION, HYDSTEP, PATTERNSTEP, PATTERNSTART, REPORTSTEP = 0, 1, 3, 4, 5
 DDA, PDA = 0, 1
 CONST_HP = 0
@@ -127,6 +128,7 @@ class _CtypesToolkit:
         "EN_setdemandmodel": (_P, _I, _D, _D, _D),
         "EN_getflowunits": (_P, _pI),
         "EN_getcontrol": (_P, _I, _pI, _pI, _pD, _pI, _pD),
+        "EN_addcontrol": (_P, _I, _I, _D, _I, _D, _pI),
         "EN_setcontrolenabled": (_P, _I, _I),
         "EN_getrule": (_P, _I, _pI, _pI, _pI, _pD),
         "EN_getthenaction": (_P, _I, _I, _pI, _pI, _pD),
@@ -281,6 +283,9 @@ class _CtypesToolkit:
             )
         )
         return [t.value, link.value, setting.value, node.value, level.value]
+
+    def addcontrol(self, ph: Any, kind: int, link: int, setting: float, node: int, level: float) -> int:
+        return self._int(self._lib.EN_addcontrol, ph, kind, link, setting, node, level)
 
     def setcontrolenabled(self, ph: Any, i: int, enabled: int) -> None:
         self._check(self._lib.EN_setcontrolenabled(ph, i, enabled))

@@ -192,6 +192,21 @@ def describe(engine: en.Engine) -> Network:
     )
 
 
+def pump_controls(engine: en.Engine, net: Network) -> tuple[list[int], list[int]]:
+    """The 1-based indices of the simple controls and of the rules that act on a pump."""
+    tk, ph = engine.tk, engine.ph
+    pumps = set(net.pump_index)
+    controls = [i for i in range(1, tk.getcount(ph, en.CONTROLCOUNT) + 1) if int(tk.getcontrol(ph, i)[1]) in pumps]
+    rules = []
+    for r in range(1, tk.getcount(ph, en.RULECOUNT) + 1):
+        _, n_then, n_else, _ = tk.getrule(ph, r)
+        links = [tk.getthenaction(ph, r, k)[0] for k in range(1, int(n_then) + 1)]
+        links += [tk.getelseaction(ph, r, k)[0] for k in range(1, int(n_else) + 1)]
+        if pumps.intersection(int(x) for x in links):
+            rules.append(r)
+    return controls, rules
+
+
 def disable_pump_controls(engine: en.Engine, net: Network) -> int:
     """Disable every simple control and rule that acts on a pump, so that only the agent switches pumps.
 
@@ -199,17 +214,24 @@ def disable_pump_controls(engine: en.Engine, net: Network) -> int:
         The number of controls and rules disabled.
     """
     tk, ph = engine.tk, engine.ph
-    pumps = set(net.pump_index)
-    disabled = 0
-    for i in range(1, tk.getcount(ph, en.CONTROLCOUNT) + 1):
-        if int(tk.getcontrol(ph, i)[1]) in pumps:
-            tk.setcontrolenabled(ph, i, 0)
-            disabled += 1
-    for r in range(1, tk.getcount(ph, en.RULECOUNT) + 1):
-        _, n_then, n_else, _ = tk.getrule(ph, r)
-        links = [tk.getthenaction(ph, r, k)[0] for k in range(1, int(n_then) + 1)]
-        links += [tk.getelseaction(ph, r, k)[0] for k in range(1, int(n_else) + 1)]
-        if pumps.intersection(int(x) for x in links):
-            tk.setruleenabled(ph, r, 0)
-            disabled += 1
-    return disabled
+    controls, rules = pump_controls(engine, net)
+    for i in controls:
+        tk.setcontrolenabled(ph, i, 0)
+    for r in rules:
+        tk.setruleenabled(ph, r, 0)
+    return len(controls) + len(rules)
+
+
+def add_pump_controls(engine: en.Engine, net: Network, rules: tuple[PumpRule, ...]) -> int:
+    """Give EPANET the tank-level rules as simple controls (``OPEN IF ... BELOW low``, ``CLOSED IF ... ABOVE high``).
+
+    Returns:
+        The number of controls added.
+    """
+    tk, ph = engine.tk, engine.ph
+    for r in rules:
+        link = net.pump_index[net.pump_ids.index(r.pump)]
+        node = int(net.tank_pos[net.tank_ids.index(r.tank)]) + 1
+        tk.addcontrol(ph, en.LOWLEVEL, link, 1.0, node, r.low)
+        tk.addcontrol(ph, en.HILEVEL, link, 0.0, node, r.high)
+    return 2 * len(rules)
