@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import gym4real  # noqa: F401  (registers the ids)
+from gym4real.core.testing import compare_vector_with_sync
 from gym4real.dam import DamEnv
 from gym4real.dam.lake import np_sum
 from gym4real.dam.vector import DamVectorEnv, pairwise_column_sums
@@ -139,3 +140,19 @@ def test_column_sums_follow_numpys_pairwise_order(rows: int) -> None:
     expected = [np_sum(values[:, j].tolist()) for j in range(64)]
     np.testing.assert_array_equal(pairwise_column_sums(values), expected)
     np.testing.assert_array_equal(pairwise_column_sums(values), values.T.copy().sum(axis=1))
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "num_envs", "steps"),
+    [
+        ({"preset": "test"}, 3, 740),
+        ({"max_episode_steps": 30}, 3, 100),
+    ],
+)
+def test_native_vector_env_is_a_drop_in_for_sync_vector_env(kwargs: dict[str, Any], num_envs: int, steps: int) -> None:
+    """Same seeds and actions give the trajectories of ``SyncVectorEnv`` of the single env, across autoresets.
+
+    Float dynamics: equal within 1e-9 relative (rounding of batched numpy expressions).
+    """
+    result = compare_vector_with_sync("gym4real/dam-v0", num_envs, steps, seed=3, rtol=1e-09, **kwargs)
+    assert (result.episode_ends >= 2).all()

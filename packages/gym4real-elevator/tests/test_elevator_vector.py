@@ -1,10 +1,13 @@
 from __future__ import annotations
 
+from typing import Any
+
 import gymnasium as gym
 import numpy as np
 import pytest
 
 import gym4real  # noqa: F401
+from gym4real.core.testing import compare_vector_with_sync
 from gym4real.elevator import ElevatorEnv
 from gym4real.elevator.vector import ElevatorVectorEnv
 
@@ -37,7 +40,27 @@ def test_batched_copies_follow_the_single_env_step_by_step() -> None:
 def test_batched_env_rejects_upstream_and_bad_actions() -> None:
     with pytest.raises(ValueError, match="corrected"):
         ElevatorVectorEnv(2, fidelity="upstream")
+    for bad in (0, 2.5, True):
+        with pytest.raises(ValueError, match="max_episode_steps must be a positive int"):
+            ElevatorVectorEnv(2, max_episode_steps=bad)
+    assert ElevatorVectorEnv(2, max_episode_steps=-1).max_episode_steps is None  # make()'s "no TimeLimit"
     vec = ElevatorVectorEnv(2)
     vec.reset(seed=0)
     with pytest.raises(ValueError, match="actions must be"):
         vec.step(np.array([0, 3]))
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "num_envs", "steps"),
+    [
+        ({"duration": 60}, 4, 200),
+        ({"duration": 60, "max_episode_steps": 7}, 4, 60),
+    ],
+)
+def test_native_vector_env_is_a_drop_in_for_sync_vector_env(kwargs: dict[str, Any], num_envs: int, steps: int) -> None:
+    """Same seeds and actions give the trajectories of ``SyncVectorEnv`` of the single env, across autoresets.
+
+    Discrete dynamics: bit for bit.
+    """
+    result = compare_vector_with_sync("gym4real/elevator-v0", num_envs, steps, seed=3, rtol=0.0, **kwargs)
+    assert (result.episode_ends >= 2).all()

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import gym4real  # noqa: F401  (registers the ids)
+from gym4real.core.testing import compare_vector_with_sync
 from gym4real.microgrid import MicrogridEnv
 from gym4real.microgrid.aging import AgingParams
 from gym4real.microgrid.rainflow import StreamingRainflow
@@ -123,3 +124,19 @@ def test_settings_it_does_not_batch_are_refused() -> None:
         MicrogridVectorEnv(2, fidelity="upstream")
     with pytest.raises(ValueError, match=r"\['capacity_fade'\] are off"):
         MicrogridVectorEnv(2, fixes={"capacity_fade": False})
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "num_envs", "steps"),
+    [
+        ({"max_steps": 90, "random_start": True, "random_battery_init": True}, 3, 200),
+        ({"max_steps": 90, "random_start": True, "decision_interval": 4, "max_episode_steps": 7}, 3, 60),
+    ],
+)
+def test_native_vector_env_is_a_drop_in_for_sync_vector_env(kwargs: dict[str, Any], num_envs: int, steps: int) -> None:
+    """Same seeds and actions give the trajectories of ``SyncVectorEnv`` of the single env, across autoresets.
+
+    Float dynamics: equal within 1e-9 relative (rounding of batched numpy expressions).
+    """
+    result = compare_vector_with_sync("gym4real/microgrid-v0", num_envs, steps, seed=3, rtol=1e-09, **kwargs)
+    assert (result.episode_ends >= 2).all()

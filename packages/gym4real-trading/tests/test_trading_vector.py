@@ -1,10 +1,13 @@
 from __future__ import annotations
 
+from typing import Any
+
 import gymnasium as gym
 import numpy as np
 import pytest
 
 import gym4real  # noqa: F401
+from gym4real.core.testing import compare_vector_with_sync
 from gym4real.trading.env import TradingEnv
 from gym4real.trading.vector import TradingVectorEnv
 
@@ -40,3 +43,21 @@ def test_bad_actions_are_refused() -> None:
     vec.reset(seed=0)
     with pytest.raises(ValueError, match="actions must be"):
         vec.step(np.array([1, 5]))
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "num_envs", "steps"),
+    [
+        ({}, 4, 30),
+        ({"fidelity": "upstream"}, 4, 30),
+        ({"sequential": True}, 4, 30),
+        ({"max_episode_steps": 5}, 4, 30),
+    ],
+)
+def test_native_vector_env_is_a_drop_in_for_sync_vector_env(kwargs: dict[str, Any], num_envs: int, steps: int) -> None:
+    """Same seeds and actions give the trajectories of ``SyncVectorEnv`` of the single env, across autoresets.
+
+    Float P&L: equal within 1e-9 relative.
+    """
+    result = compare_vector_with_sync("gym4real/trading-v0", num_envs, steps, seed=3, rtol=1e-09, **kwargs)
+    assert (result.episode_ends >= 2).all()

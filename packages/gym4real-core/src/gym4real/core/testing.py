@@ -78,3 +78,71 @@ def check_contract(env_id: str, steps: int = 50, seeded: bool = True, **kwargs: 
         rollout(clone, 11, 5)
     fresh.close()
     clone.close()
+
+
+@dataclasses.dataclass
+class VectorComparison:
+    """How a native vector env compared with ``SyncVectorEnv`` of the single env (per copy)."""
+
+    max_obs_diff: np.ndarray  # largest |native - sync| / max(|sync|, 1) over every observation entry
+    max_reward_diff: np.ndarray  # the same for rewards
+    episode_ends: np.ndarray  # episodes each copy ended (terminated or truncated; the next step autoresets it)
+
+
+def _leaves(obs: Any) -> list[np.ndarray]:
+    if isinstance(obs, dict):
+        return [np.asarray(obs[k], dtype=np.float64) for k in sorted(obs)]
+    return [np.asarray(obs, dtype=np.float64)]
+
+
+def _relative(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Per copy (first axis): the largest |a - b| / max(|b|, 1)."""
+    d = np.abs(a - b) / np.maximum(np.abs(b), 1.0)
+    return d.reshape(len(d), -1).max(axis=1) if d.ndim > 1 else d
+
+
+def compare_vector_with_sync(
+    env_id: str, num_envs: int, steps: int, seed: int = 0, rtol: float = 0.0, **kwargs: Any
+) -> VectorComparison:
+    """Step a native vector env and ``SyncVectorEnv`` of the single env side by side, across autoresets.
+
+    Both are made with ``gymnasium.make_vec`` (``vector_entry_point`` and ``sync``) from ``kwargs``,
+    reset with ``seed`` (copy ``i`` seeded ``seed + i``, then continuing without a seed at each
+    autoreset) and stepped with the same actions, sampled from the batched action space seeded with
+    ``seed``. Termination and truncation flags must agree exactly, observations and rewards within
+    ``rtol`` (relative, absolute below 1); the differences are returned for reporting.
+
+    Raises:
+        AssertionError: The native env departs from ``SyncVectorEnv``.
+    """
+    native = gym.make_vec(env_id, num_envs, vectorization_mode="vector_entry_point", **kwargs)
+    sync = gym.make_vec(env_id, num_envs, vectorization_mode="sync", **kwargs)
+    try:
+        obs_n, _ = native.reset(seed=seed)
+        obs_s, _ = sync.reset(seed=seed)
+        sync.action_space.seed(seed)
+        obs_diff = np.zeros(num_envs)
+        reward_diff = np.zeros(num_envs)
+        ends = np.zeros(num_envs, dtype=np.int64)
+        for t in range(steps + 1):
+            for a, b in zip(_leaves(obs_n), _leaves(obs_s), strict=True):
+                d = _relative(a, b)
+                assert (d <= rtol).all(), (
+                    f"step {t}: observations differ by {d.max():.3g} (copies {np.flatnonzero(d > rtol)})"
+                )
+                obs_diff = np.maximum(obs_diff, d)
+            if t == steps:
+                break
+            actions = sync.action_space.sample()
+            obs_n, r_n, term_n, trunc_n, _ = native.step(actions)
+            obs_s, r_s, term_s, trunc_s, _ = sync.step(actions)
+            np.testing.assert_array_equal(term_n, term_s, err_msg=f"terminated at step {t}")
+            np.testing.assert_array_equal(trunc_n, trunc_s, err_msg=f"truncated at step {t}")
+            d = _relative(np.asarray(r_n, dtype=np.float64), np.asarray(r_s, dtype=np.float64))
+            assert (d <= rtol).all(), f"step {t}: rewards differ by {d.max():.3g} (copies {np.flatnonzero(d > rtol)})"
+            reward_diff = np.maximum(reward_diff, d)
+            ends += np.asarray(term_s) | np.asarray(trunc_s)
+        return VectorComparison(obs_diff, reward_diff, ends)
+    finally:
+        native.close()
+        sync.close()

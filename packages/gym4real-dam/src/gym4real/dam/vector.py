@@ -12,6 +12,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from gym4real.core.errors import ConfigError
+from gym4real.core.vector import check_max_episode_steps
 from gym4real.dam.config import DamConfig
 from gym4real.dam.env import _RESET_OPTIONS, COMPONENTS, DamEnv
 
@@ -52,14 +53,16 @@ class DamVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
 
     ## Episode End
     All copies truncate together after ``sim_horizon`` days; the step after that resets every copy
-    (Gymnasium's next-step autoreset, zero reward). The truncating step's ``info`` holds
+    (Gymnasium's next-step autoreset, zero reward). The step at the horizon's ``info`` holds
     ``recorded_level_rmse`` per copy (NaN for a year without recorded levels).
 
     ## Arguments
     ``gymnasium.make_vec("gym4real/dam-v0", num_envs=N, vectorization_mode="vector_entry_point", **kwargs)``
-    or ``DamVectorEnv(num_envs, config=None, preset=None, **overrides)``, with the single env's config,
-    presets and overrides. Only ``fidelity="corrected"`` with the ``current_level_observation`` and
-    ``np_random_years`` fixes is batched (ValueError otherwise; use ``SyncVectorEnv`` for the reference).
+    or ``DamVectorEnv(num_envs, config=None, preset=None, max_episode_steps=None, **overrides)``, with the
+    single env's config, presets and overrides; ``max_episode_steps`` truncates every copy after that many
+    steps, as Gymnasium's ``TimeLimit`` does to the single env. Only ``fidelity="corrected"`` with the
+    ``current_level_observation`` and ``np_random_years`` fixes is batched (ValueError otherwise; use
+    ``SyncVectorEnv`` for the reference).
     """
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP}
@@ -70,11 +73,13 @@ class DamVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         config: DamConfig | Mapping[str, Any] | str | Path | None = None,
         *,
         preset: str | None = None,
+        max_episode_steps: int | None = None,
         **overrides: Any,
     ) -> None:
         if num_envs < 1:
             raise ValueError(f"num_envs must be a positive count of copies, not {num_envs}")
         self.single = s = DamEnv(config, preset=preset, **overrides)
+        self.max_episode_steps = check_max_episode_steps(max_episode_steps)
         self.config = cfg = s.config
         missing = [f for f in _NEEDED_FIXES if not s._fixes[f]]
         if cfg.fidelity != "corrected" or missing:
@@ -346,7 +351,7 @@ class DamVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
             + components["clipping"]
         )
         self._t = t = t + 1
-        truncated = t >= s._H
+        truncated = t >= s._H or t == self.max_episode_steps
         self._needs_reset = truncated
         info: dict[str, Any] = {
             "reward_components": components,
@@ -356,7 +361,7 @@ class DamVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
             "release": release,
             "year": self.years,
         }
-        if truncated:
+        if t >= s._H:
             info["recorded_level_rmse"] = np.sqrt(self._squared_gap / t)
         return self._observe(), reward, np.zeros(n, dtype=bool), np.full(n, truncated), info
 

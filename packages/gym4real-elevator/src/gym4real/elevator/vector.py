@@ -12,6 +12,7 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from gym4real.core.vector import check_max_episode_steps
 from gym4real.elevator import arrivals
 from gym4real.elevator.config import ElevatorConfig
 from gym4real.elevator.env import DOWN, OPEN, UP, ElevatorEnv
@@ -20,12 +21,15 @@ from gym4real.elevator.env import DOWN, OPEN, UP, ElevatorEnv
 class ElevatorVectorEnv(VectorEnv[dict[str, Any], np.ndarray, np.ndarray]):
     """``num_envs`` copies of :class:`ElevatorEnv` in arrays, with the same dynamics step by step.
 
-    Copy ``i`` of ``reset(seed=s)`` is the single env reset with seed ``s + i``. Every copy has the same
+    Copy ``i`` of ``reset(seed=s)`` is the single env reset with seed ``s + i``, and it keeps that env's
+    generator: ``reset()`` and autoresets continue it as the single env does without a seed, so the
+    batch is a drop-in replacement for ``SyncVectorEnv`` of the single env. Every copy has the same
     episode length, so all copies end together; the step after the end resets them all (Gymnasium's
     next-step autoreset, with zero reward). Only ``fidelity="corrected"`` is batched.
 
     Made with ``gymnasium.make_vec("gym4real/elevator-v0", num_envs=N, vectorization_mode="vector_entry_point")``
-    or directly, with the same arguments as the single env.
+    or directly, with the same arguments as the single env; ``max_episode_steps`` truncates every copy
+    after that many steps, as Gymnasium's ``TimeLimit`` does to the single env.
     """
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP}
@@ -36,9 +40,11 @@ class ElevatorVectorEnv(VectorEnv[dict[str, Any], np.ndarray, np.ndarray]):
         config: ElevatorConfig | Mapping[str, Any] | str | Path | None = None,
         *,
         preset: str | None = None,
+        max_episode_steps: int | None = None,
         **overrides: Any,
     ) -> None:
         self.single = ElevatorEnv(config, preset=preset, **overrides)
+        self.max_episode_steps = check_max_episode_steps(max_episode_steps)
         self.config = cfg = self.single.config
         if cfg.fidelity != "corrected":
             raise ValueError(
@@ -53,6 +59,7 @@ class ElevatorVectorEnv(VectorEnv[dict[str, Any], np.ndarray, np.ndarray]):
         s = self.single
         self._served = np.array(s._served_floors)
         self._rows = np.arange(num_envs)
+        self._rngs: list[np.random.Generator] | None = None
         self._needs_reset = False
         self._reset_arrays(
             np.zeros((num_envs, cfg.duration + 1, len(self._served)), dtype=np.int8), np.zeros(num_envs, dtype=np.int64)
@@ -79,18 +86,16 @@ class ElevatorVectorEnv(VectorEnv[dict[str, Any], np.ndarray, np.ndarray]):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-        """Reset every copy; copy ``i`` draws from ``seed + i`` exactly as the single env does."""
+        """Reset every copy: copy ``i`` seeded with ``seed + i``, or continuing its generator without a seed."""
         super().reset(seed=seed)
         cfg, f, s = self.config, self.config.floors, self.single
         table = np.empty_like(self._arrivals)
         position = np.empty(self.num_envs, dtype=np.int64)
-        seeds = (
-            [seed + i for i in range(self.num_envs)]
-            if seed is not None
-            else self.np_random.integers(2**31, size=self.num_envs).tolist()
-        )
-        for i in range(self.num_envs):
-            rng = seeding.np_random(int(seeds[i]))[0]
+        if seed is not None:
+            self._rngs = [seeding.np_random(seed + i)[0] for i in range(self.num_envs)]
+        elif self._rngs is None:  # never seeded: copies seeded from the batch's own generator
+            self._rngs = [seeding.np_random(int(k))[0] for k in self.np_random.integers(2**31, size=self.num_envs)]
+        for i, rng in enumerate(self._rngs):
             rates = arrivals.draw_rates(rng, len(self._served), f.lambda_min, f.lambda_max)
             table[i, :-1] = arrivals.corrected_arrivals(rng, rates, cfg.duration, f.max_arrivals)
             table[i, -1] = 0
@@ -136,7 +141,7 @@ class ElevatorVectorEnv(VectorEnv[dict[str, Any], np.ndarray, np.ndarray]):
         queues[:, self._served] += join
         self.turned_away += (k - join).sum(axis=1)
         self._t += 1
-        done = self._t >= self.config.duration
+        done = self._t >= self.config.duration or self._t == self.max_episode_steps
         self._needs_reset = done
         info = {"reward_components": {"delivery": delivery.astype(float), "waiting": waiting}}
         return self._obs(), delivery + waiting, np.zeros(n, dtype=bool), np.full(n, done), info

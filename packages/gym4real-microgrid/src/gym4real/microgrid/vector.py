@@ -18,6 +18,7 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from gym4real.core.vector import check_max_episode_steps
 from gym4real.microgrid.aging import AgingParams
 from gym4real.microgrid.battery import KELVIN, BatteryParams
 from gym4real.microgrid.config import MicrogridConfig
@@ -298,8 +299,9 @@ class MicrogridVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
 
     ## Arguments
     ``gymnasium.make_vec("gym4real/microgrid-v0", num_envs=N, vectorization_mode="vector_entry_point",
-    **kwargs)`` or ``MicrogridVectorEnv(N, config=None, preset=None, **overrides)``, with the single
-    env's configuration arguments.
+    **kwargs)`` or ``MicrogridVectorEnv(N, config=None, preset=None, max_episode_steps=None, **overrides)``,
+    with the single env's configuration arguments; ``max_episode_steps`` truncates a copy after that many
+    decisions, as Gymnasium's ``TimeLimit`` does to the single env.
     """
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP}
@@ -310,9 +312,11 @@ class MicrogridVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         config: MicrogridConfig | Mapping[str, Any] | str | Path | None = None,
         *,
         preset: str | None = None,
+        max_episode_steps: int | None = None,
         **overrides: Any,
     ) -> None:
         self.single = s = MicrogridEnv(config, preset=preset, **overrides)
+        self.max_episode_steps = check_max_episode_steps(max_episode_steps)
         self.config = cfg = s.config
         if cfg.fidelity != "corrected":
             msg = (
@@ -345,6 +349,7 @@ class MicrogridVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         self._cursor = np.zeros(n, dtype=np.int64)
         self._row = np.ones(n, dtype=np.int64)
         self._iterations = np.zeros(n, dtype=np.int64)
+        self._elapsed = np.zeros(n, dtype=np.int64)  # decisions since the copy's reset
         self._limit = np.ones(n, dtype=np.int64)
         self._col = np.zeros(n, dtype=np.int64)
         self._autoreset = np.zeros(n, dtype=bool)
@@ -380,7 +385,7 @@ class MicrogridVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         """Start a new episode in the copies ``idx``."""
         draws = np.array([self._draw(int(i), options) for i in idx]).T
         col, row = draws[0].astype(np.int64), draws[1].astype(np.int64)
-        self._col[idx], self._row[idx], self._iterations[idx] = col, row, 0
+        self._col[idx], self._row[idx], self._iterations[idx], self._elapsed[idx] = col, row, 0, 0
         max_steps = self.config.max_steps or self.single._n_rows
         self._limit[idx] = np.minimum(self.single._n_rows - row, max_steps)
         self.twin.reset(idx, draws[2], draws[3], draws[4])
@@ -532,6 +537,9 @@ class MicrogridVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
             "clipping": wc * clipping * s._clipping_scale,
         }
         pure = {"trading": trading, "degradation": degradation, "clipping": clipping}
+        self._elapsed += 1
+        if self.max_episode_steps is not None:
+            truncated |= self._elapsed >= self.max_episode_steps
         reset = self._autoreset
         if reset.any():  # these copies ended at the previous step: they start over, their action unused
             idx = np.flatnonzero(reset)

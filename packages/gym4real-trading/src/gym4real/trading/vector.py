@@ -12,6 +12,7 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from gym4real.core.vector import check_max_episode_steps
 from gym4real.trading.config import TradingConfig
 from gym4real.trading.env import FLAT, TradingEnv
 
@@ -19,11 +20,13 @@ from gym4real.trading.env import FLAT, TradingEnv
 class TradingVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
     """``num_envs`` copies of :class:`TradingEnv` sharing one loaded data split.
 
-    Copy ``i`` of ``reset(seed=s)`` trades the day the single env picks for ``reset(seed=s + i)``; every
-    day has the same number of decisions, so all copies close together and the next step resets them
-    (Gymnasium's next-step autoreset, zero reward) to days drawn from the batch's own generator.
+    Copy ``i`` of ``reset(seed=s)`` trades the day the single env picks for ``reset(seed=s + i)`` and keeps
+    that env's generator; every day has the same number of decisions, so all copies close together and
+    the next step resets them (Gymnasium's next-step autoreset, zero reward) to the day each single env
+    would pick without a seed: the batch is a drop-in replacement for ``SyncVectorEnv`` of the single env.
     Made with ``gymnasium.make_vec("gym4real/trading-v0", num_envs=N, vectorization_mode="vector_entry_point")``
-    or directly, with the single env's arguments.
+    or directly, with the single env's arguments; ``max_episode_steps`` truncates every copy after that
+    many steps, as Gymnasium's ``TimeLimit`` does to the single env.
     """
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP}
@@ -34,15 +37,18 @@ class TradingVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         config: TradingConfig | Mapping[str, Any] | str | Path | None = None,
         *,
         preset: str | None = None,
+        max_episode_steps: int | None = None,
         **overrides: Any,
     ) -> None:
         self.single = s = TradingEnv(config, preset=preset, **overrides)
+        self.max_episode_steps = check_max_episode_steps(max_episode_steps)
         self.num_envs = num_envs
         self.single_observation_space = s.observation_space
         self.single_action_space = s.action_space
         self.observation_space = batch_space(s.observation_space, num_envs)
         self.action_space = spaces.MultiDiscrete(np.full(num_envs, 3))
         self._rows = np.arange(num_envs)
+        self._rngs: list[np.random.Generator] | None = None
         self._needs_reset = False
         self._days = np.zeros(num_envs, dtype=np.int64)
         self._load(self._days)
@@ -65,19 +71,17 @@ class TradingVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
-        """Draw a day per copy: with a seed, the day the single env picks for ``seed + i``."""
+        """Draw a day per copy, as the single env seeded with ``seed + i`` (or continuing without a seed)."""
         super().reset(seed=seed)
         n = len(self.single.days)
-        if seed is None:  # autoreset: one vectorised draw from the batch's own stream
-            self._days = (
-                (self._days + 1) % n
-                if self.single.config.sequential
-                else self.np_random.integers(n, size=self.num_envs)
-            )
-        elif self.single.config.sequential:
-            self._days = (seed + self._rows) % n
+        if self.single.config.sequential:
+            self._days = (seed + self._rows) % n if seed is not None else (self._days + 1) % n
         else:
-            self._days = np.array([int(seeding.np_random(seed + i)[0].integers(n)) for i in range(self.num_envs)])
+            if seed is not None:
+                self._rngs = [seeding.np_random(seed + i)[0] for i in range(self.num_envs)]
+            elif self._rngs is None:  # never seeded: copies seeded from the batch's own generator
+                self._rngs = [seeding.np_random(int(k))[0] for k in self.np_random.integers(2**31, size=self.num_envs)]
+            self._days = np.array([int(rng.integers(n)) for rng in self._rngs])
         self._load(self._days)
         self._needs_reset = False
         return self._observe(FLAT), {"day": self._days.copy()}
@@ -96,8 +100,9 @@ class TradingVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         pnl = s._cap * pos * (self._mid[:, k + 1] - self._mid[:, k])
         fee = s._fee * np.abs(pos - self._pos)
         self._k = k + 1
-        done = self._k == s.n_steps
-        if done:
+        closed = self._k == s.n_steps
+        done = closed or self._k == self.max_episode_steps
+        if closed:
             fee = fee + s._fee * np.abs(pos if s._close_new else self._pos)
             self._pos = np.zeros(n, dtype=np.int64)
             obs = self._observe(FLAT)
@@ -108,4 +113,4 @@ class TradingVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         self.cum_fees += fee
         self._needs_reset = done
         info = {"reward_components": {"pnl": pnl, "fees": -fee}}
-        return obs, pnl - fee, np.full(n, done and s._terminate), np.full(n, done), info
+        return obs, pnl - fee, np.full(n, closed and s._terminate), np.full(n, done), info
