@@ -1,5 +1,8 @@
 from __future__ import annotations
 
+import math
+from pathlib import Path
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -274,9 +277,7 @@ def test_evaporation_from_a_rates_file(tmp_path: object) -> None:
 
     rates = Path(str(tmp_path)) / "evaporation.csv"
     rates.write_text("rate_mm_per_day\n" + "\n".join(["2.0"] * 365) + "\n")
-    with pytest.raises(ConfigError, match="level_bounds"):  # a year of evaporation could drain below -1 m
-        DamEnv(preset="test", lake={"evaporation": True, "evaporation_rates": str(rates)})
-    env = DamEnv(preset="test", lake={"evaporation": True, "evaporation_rates": str(rates)}, level_bounds=(-2, 6))
+    env = DamEnv(preset="test", lake={"evaporation": True, "evaporation_rates": str(rates)})
     dry = DamEnv(preset="test")
     env.reset(options={"year": 1950})
     dry.reset(options={"year": 1950})
@@ -288,6 +289,48 @@ def test_evaporation_from_a_rates_file(tmp_path: object) -> None:
     # 15 days of 2 mm/day
     assert dry_info["level"] - info["level"] == pytest.approx(15 * 86_400 * flow / 145.9e6, rel=1e-6)
     assert dry_info["level"] - info["level"] == pytest.approx(0.030, rel=1e-6)
+
+
+@pytest.mark.parametrize("preset", ["train", "test"])
+def test_realistic_evaporation_passes_the_level_bounds_check(tmp_path: Path, preset: str) -> None:
+    """3 mm/day (Lake Como's summer rate) fits the default bounds: below l_min the inflow exceeds it."""
+    rates = tmp_path / "evaporation.csv"
+    rates.write_text("rate_mm_per_day\n" + "\n".join(["3.0"] * 365) + "\n")
+    env = DamEnv(preset=preset, lake={"evaporation": True, "evaporation_rates": str(rates)})
+    assert env.config.level_bounds == (-1.0, 6.0)
+
+
+def test_the_low_level_bound_holds_for_a_lake_draining_by_evaporation(tmp_path: Path) -> None:
+    """With 100 mm/day (169 m3/s, above most inflows) the lake falls below l_min, never below the bound."""
+    rates = tmp_path / "evaporation.csv"
+    rates.write_text("rate_mm_per_day\n" + "\n".join(["100.0"] * 365) + "\n")
+    lake = {"evaporation": True, "evaporation_rates": str(rates)}
+    with pytest.raises(ConfigError, match="level_bounds"):
+        DamEnv(preset="test", lake=lake)
+    env = DamEnv(preset="test", lake=lake, level_bounds=(-40, 6))
+    low, _ = env.lake.level_range(-0.5, env.config.max_inflow, env._evaporation_drop(env.lake.surface, 1.0))
+    lowest = math.inf
+    for year in env.years:
+        env.reset(options={"year": year, "init_level": -0.5})
+        truncated = False
+        while not truncated:
+            *_, truncated, info = env.step(np.array([0.0], dtype=np.float32))
+            lowest = min(lowest, info["level"])
+    assert low <= lowest < -0.5 - 0.5 * (-0.5 - low)  # reached: the bound is within a factor 2 of the data
+
+
+def test_an_episode_past_31_december_continues_in_the_next_year_of_the_split() -> None:
+    env = DamEnv(preset="test", doy=200)
+    inflow = env._inflow.values
+    for year, expected in ((1970, 1971), (1950, 1950)):  # 1971 is a test year, 1951 a training year
+        env.reset(options={"year": year})
+        for _ in range(365 - 199):
+            *_, info = env.step(np.array([100.0], dtype=np.float32))
+        assert info["day_of_year"] == 365 and info["calendar_year"] == year
+        *_, info = env.step(np.array([100.0], dtype=np.float32))
+        assert info["day_of_year"] == 1 and info["calendar_year"] == expected
+        assert info["inflow"] == inflow[expected][0]
+        assert info["year"] == year
 
 
 def test_multi_objective_id_gives_the_five_components() -> None:

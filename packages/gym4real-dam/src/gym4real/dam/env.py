@@ -28,14 +28,16 @@ _F32 = np.float32
 
 @dataclass(frozen=True)
 class Episode:
-    """The exogenous series of one year, per step ``t`` of an episode (precomputed once per year).
+    """The exogenous series of one episode, per step ``t`` (precomputed once per starting year).
 
-    ``day[t]`` is the 0-based day of year simulated at step ``t``; ``recorded_level[t]`` the recorded
-    level at the start of that day (None without recorded levels).
+    ``day[t]`` is the 0-based day of year simulated at step ``t`` and ``calendar_year[t]`` the year whose
+    demand, inflow and recorded level it reads (the next year after 31 December where the split has it);
+    ``recorded_level[t]`` the recorded level at the start of that day (None without recorded levels).
     """
 
     year: int
     day: tuple[int, ...]
+    calendar_year: tuple[int, ...]
     demand: tuple[float, ...]
     inflow: tuple[float, ...]
     min_flow: tuple[float, ...]
@@ -71,7 +73,8 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
     | exponential average demand | [0, ``max_demand``] | ``E <- 0.8 E + 0.2 D_t``, including today's demand |
 
     The level bounds are checked at construction against every level reachable in an episode (from the
-    initial level, the largest accepted inflow and the evaporation), so observations never leave the box.
+    initial level, the largest accepted inflow, and for the low end the largest fall that evaporation
+    exceeding the data's inflows can cause below l_min), so observations never leave the box.
 
     ## Rewards
     The sum of five weighted non-positive terms, in ``info["reward_components"]`` (unweighted values in
@@ -86,6 +89,12 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
     (``year_selection="random"``, the ``train`` preset) or the split's years in file order
     (``"cycle"``, the ``test`` preset: 1950, 1970, ..., 1974). ``reset(options=...)`` takes ``year``
     (that year), ``rewind_profiles`` (restart the cycle) and ``init_level`` (start level, m).
+
+    An episode that does not start on 1 January (``doy`` > 1) or lasts more than a year runs past
+    31 December into the next calendar year: demand, inflow and recorded levels then come from the next
+    year of the split when the split holds it (consecutive years are often in different splits, and
+    reading the other split would leak held-out years into training), else from the same year again,
+    from 1 January. ``info["calendar_year"]`` says which.
 
     ## Episode End
     Truncation after ``sim_horizon`` (365) days; no termination (floods and starvation are penalised).
@@ -275,22 +284,19 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
         ep = self._episodes.get(year)
         if ep is not None:
             return ep
-        cfg, fixes = self.config, self._fixes
-        drop = fixes["drop_feb29"]
-        demand = calendar_days(self._demand, year, drop)
-        inflow = calendar_days(self._inflow, year, drop)
-        if self._scales["inflow"] != 1.0:
-            inflow = [q * self._scales["inflow"] for q in inflow]
-        days = tuple((cfg.doy - 1 + t) % cfg.period for t in range(cfg.sim_horizon))
+        cfg, drop = self.config, self._fixes["drop_feb29"]
+        days, years = self._calendar(year)
+        demand = {y: calendar_days(self._demand, y, drop) for y in set(years)}
         recorded = None
         if self._levels_table is not None and year in self._levels_table.values:
-            levels = calendar_days(self._levels_table, year, drop)
-            recorded = tuple(levels[d] for d in days)
+            levels = {y: calendar_days(self._levels_table, y, drop) for y in set(years)}
+            recorded = tuple(levels[y][d] for y, d in zip(years, days, strict=True))
         ep = Episode(
             year=year,
             day=days,
-            demand=tuple(demand[d] for d in days),
-            inflow=tuple(inflow[d] for d in days) if fixes["inflow_by_day_of_year"] else tuple(inflow[: len(days)]),
+            calendar_year=years,
+            demand=tuple(demand[y][d] for y, d in zip(years, days, strict=True)),
+            inflow=self._inflows(year, self._scales["inflow"]),
             min_flow=tuple(self._mef[d] for d in days),
             evaporation=tuple(self._evaporation[d] for d in days),
             deficit_weight=tuple(deficit_weight(d, cfg.smooth_daily_deficit_coeff) for d in days),
@@ -305,6 +311,44 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
         )
         return ep
 
+    def _calendar(self, year: int) -> tuple[tuple[int, ...], tuple[int, ...]]:
+        """Per step of an episode starting in ``year``: the 0-based day of year and the calendar year."""
+        cfg = self.config
+        offsets = range(cfg.doy - 1, cfg.doy - 1 + cfg.sim_horizon)
+        years = []
+        for o in offsets:
+            later = year + o // cfg.period
+            years.append(later if later in self._demand.values and later in self._inflow.values else year)
+        return tuple(o % cfg.period for o in offsets), tuple(years)
+
+    def _inflows(self, year: int, scale: float) -> tuple[float, ...]:
+        """The inflow of each step of an episode starting in ``year``, scaled by ``scale``."""
+        drop = self._fixes["drop_feb29"]
+        days, years = self._calendar(year)
+        series = {y: calendar_days(self._inflow, y, drop) for y in set(years)}
+        if scale != 1.0:
+            series = {y: [q * scale for q in v] for y, v in series.items()}
+        if not self._fixes["inflow_by_day_of_year"]:  # the reference: the year's values by step
+            return tuple(series[year][: len(days)])
+        return tuple(series[y][d] for y, d in zip(years, days, strict=True))
+
+    def _evaporation_drop(self, area: float, inflow_scale: float) -> float:
+        """The largest fall (m) below l_min, where nothing is released, in an episode of this env's years.
+
+        It is the largest sum of (evaporation - inflow) over consecutive days of an episode, over the surface.
+        """
+        if self._evaporation_rates is None:
+            return 0.0
+        evaporation = self._evaporation_flows(area)
+        worst = 0.0
+        for year in self._years:
+            days, _ = self._calendar(year)
+            run = 0.0
+            for d, q in zip(days, self._inflows(year, inflow_scale), strict=True):
+                run = max(0.0, run + evaporation[d] - q)
+                worst = max(worst, run)
+        return worst * SECONDS_PER_DAY / area
+
     def _check_level_bounds(
         self, start: float, lake: Lake | None = None, scales: Mapping[str, float] | None = None
     ) -> None:
@@ -312,9 +356,9 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
         cfg = self.config
         lake = lake or self.lake
         scales = scales or self._scales
-        evaporation = max(self._evaporation_flows(lake.surface))
+        drop = self._evaporation_drop(lake.surface, scales["inflow"])
         try:
-            low, high = lake.level_range(start, cfg.max_inflow * scales["inflow"], evaporation, cfg.sim_horizon)
+            low, high = lake.level_range(start, cfg.max_inflow * scales["inflow"], drop)
         except ValueError as exc:
             raise ConfigError(str(exc)) from None
         if low < cfg.level_bounds[0] or high > cfg.level_bounds[1]:
@@ -571,6 +615,7 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
             "inflow": inflow,
             "exponential_average_demand": ead,
             "year": self._year,
+            "calendar_year": self._ep.calendar_year[t - 1],
             "day_of_year": day,
         }
         if self._upstream:

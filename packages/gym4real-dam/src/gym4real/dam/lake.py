@@ -365,13 +365,14 @@ class Lake:
 
     # -- reachable levels --------------------------------------------------------------------------
 
-    def level_range(self, start: float, max_inflow: float, max_evaporation: float, days: int) -> tuple[float, float]:
-        """Bounds on every level reachable in ``days`` days from ``start`` with inflow in ``[0, max_inflow]``.
+    def level_range(self, start: float, max_inflow: float, evaporation_drop: float = 0.0) -> tuple[float, float]:
+        """Bounds on every level reachable from ``start`` with inflow in ``[0, max_inflow]``.
 
         Upper: above ``h_top = max(l_max, rating^-1(max_inflow))`` the release exceeds any inflow, and one
         sub-step raises the level by at most ``dt * max_inflow / A``. Lower: from above l_min a sub-step
         lowers the level by at most ``dt (q_max(h) + e) / A``, which cannot cross l_min when
-        ``dt * q_max' / A < 1`` (checked); below l_min only evaporation lowers it.
+        ``dt * q_max' / A < 1`` (checked); below l_min nothing is released and only evaporation exceeding
+        the inflow lowers it, by at most ``evaporation_drop`` (m) in an episode.
         """
         area, dt = self.surface, self.dt
         h_top = max(self.max_level, self.alpha + (max_inflow / self.C_r) ** (1.0 / self.beta))
@@ -386,7 +387,7 @@ class Lake:
             raise ValueError(msg)
         floor_flow = max(0.0, self.linear_slope * self.min_level + self.linear_intercept)
         low = min(start, self.min_level) - dt * floor_flow / area
-        low -= days * SECONDS_PER_DAY * max_evaporation / area
+        low -= evaporation_drop
         return low - 1e-9, high + 1e-9
 
 
