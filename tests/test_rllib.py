@@ -41,3 +41,32 @@ def test_ppo_two_iterations_with_two_env_runners(env_id: str, local_ray: None) -
     returns = results[-1]["env_runners"]["episode_return_mean"]
     assert isinstance(returns, float) and math.isfinite(returns)
     assert results[-1]["env_runners"]["num_episodes_lifetime"] >= 1
+
+
+@pytest.mark.parametrize(
+    "env_id", [i for i in ("gym4real/dam-v0", "gym4real/elevator-v0") if i in gym4real.list_envs()]
+)
+def test_ppo_on_the_native_vector_env(env_id: str, local_ray: None) -> None:
+    """`gym_env_vectorize_mode="vector_entry_point"`: RLlib steps the env's batched VectorEnv."""
+    from ray.rllib.algorithms.ppo import PPOConfig
+
+    from gym4real.integrations.rllib import register_all
+
+    flatten = env_id == "gym4real/elevator-v0"
+    register_all(flatten=flatten)
+    config = (
+        PPOConfig()
+        .environment(env_id, env_config={"duration": 100} if flatten else {"max_episode_steps": 50})
+        .env_runners(num_env_runners=0, num_envs_per_env_runner=4, gym_env_vectorize_mode="vector_entry_point")
+        .training(train_batch_size_per_learner=400, minibatch_size=200, num_epochs=1)
+        .debugging(seed=0)
+    )
+    algo = config.build_algo()
+    try:
+        env = algo.env_runner.env.unwrapped
+        assert type(env).__name__.endswith("VectorEnv") and env.num_envs == 4
+        result = algo.train()
+    finally:
+        algo.stop()
+    assert result["env_runners"]["num_episodes_lifetime"] >= 4
+    assert math.isfinite(result["env_runners"]["episode_return_mean"])

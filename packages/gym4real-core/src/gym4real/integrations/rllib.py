@@ -13,6 +13,9 @@ then::
 
 Each env runner makes its own environments from the id (``env_config`` holds ``make()`` keyword
 arguments), so heavy handles (EPANET projects, MuJoCo renderers, ONNX sessions) open in the worker.
+Envs with a native batched ``VectorEnv`` (dam, elevator, microgrid, trading) can step all of a
+runner's copies at once: ``.env_runners(gym_env_vectorize_mode="vector_entry_point",
+num_envs_per_env_runner=N)``.
 """
 
 from __future__ import annotations
@@ -26,17 +29,37 @@ import numpy as np
 from gym4real.core.registry import list_envs, register_envs
 
 
-def make_env(env_id: str, env_config: Mapping[str, Any] | None = None, flatten: bool = False) -> gym.Env[Any, Any]:
+def make_env(
+    env_id: str, env_config: Mapping[str, Any] | None = None, flatten: bool = False
+) -> gym.Env[Any, Any] | gym.vector.VectorEnv[Any, Any, Any]:
     """Make a Gym4ReaL env from an RLlib ``env_config`` (a mapping of ``make()`` keyword arguments).
 
+    With ``num_envs`` in the config (RLlib's ``gym_env_vectorize_mode="vector_entry_point"`` asks so), the
+    env's native batched ``VectorEnv`` of that many copies, made with the other keys.
     ``flatten`` wraps it in ``FlattenObservation`` and casts to float32 (dict and discrete observations
     become one float vector, which RLlib's default encoders need).
+
+    Raises:
+        ValueError: ``num_envs`` for an env without a native vector env.
     """
     register_envs()
-    env = gym.make(env_id, **dict(env_config or {}))
+    kwargs = dict(env_config or {})
+    num_envs = kwargs.pop("num_envs", None)
+    if num_envs is None:
+        env = gym.make(env_id, **kwargs)
+        if flatten:
+            env = gym.wrappers.DtypeObservation(gym.wrappers.FlattenObservation(env), np.float32)
+        return env
+    if gym.spec(env_id).vector_entry_point is None:
+        msg = (
+            f"`{env_id}` has no native vector env for gym_env_vectorize_mode='vector_entry_point'; "
+            "use gym_env_vectorize_mode='sync'"
+        )
+        raise ValueError(msg)
+    vec = gym.make_vec(env_id, int(num_envs), vectorization_mode="vector_entry_point", **kwargs)
     if flatten:
-        env = gym.wrappers.DtypeObservation(gym.wrappers.FlattenObservation(env), np.float32)
-    return env
+        vec = gym.wrappers.vector.DtypeObservation(gym.wrappers.vector.FlattenObservation(vec), np.float32)
+    return vec
 
 
 def register_all(flatten: bool = False) -> list[str]:
