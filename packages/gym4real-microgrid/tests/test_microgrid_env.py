@@ -1,6 +1,7 @@
 from __future__ import annotations
 
 import os
+import warnings
 from pathlib import Path
 
 import gymnasium as gym
@@ -10,10 +11,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import gym4real  # noqa: F401  (registers the ids)
+import gym4real
 from gym4real.core.errors import ConfigError, DataFileError
 from gym4real.core.testing import check_contract
 from gym4real.microgrid import MicrogridEnv
+from gym4real.microgrid.data import TrainingOnTestDataWarning
 
 ENV_ID = "gym4real/microgrid-v0"
 DATA = Path(os.environ["GYM4REAL_DATA_DIR"]) / "microgrid"
@@ -299,3 +301,44 @@ def test_last_step_trades_the_last_hour_or_wraps_like_the_reference(fidelity: st
     net = pv[row] - demand[8759]  # demand wraps at 8760 rows in both modes
     price = market["bid"][row] if net >= 0 else market["ask"][row]
     assert truncated and info["pure_components"]["trading"] == pytest.approx(net * price, rel=1e-12)
+
+
+def test_missing_series_are_the_constant_dummies() -> None:
+    """No generation, market or temperature file: the reference's constants (10 W, 0.21 / 0.14 EUR/kWh, 298.15 K)."""
+    env = MicrogridEnv(preset="test", data={"generation": None, "market": None, "temp_amb": None})
+    demand = pd.read_csv(gym4real.core.datasets.resolve("microgrid/demand/test"))
+    obs, info = env.reset(options={"profile": "370"})
+    names = env.feature_names
+    assert obs[names.index("temperature")] == np.float32(298.15)  # the battery starts at the ambient temperature
+    for _ in range(24):
+        obs, _, _, _, info = env.step(np.array([0.3], dtype=np.float32))
+        assert (obs[names.index("generation")], obs[names.index("ask")], obs[names.index("bid")]) == (
+            np.float32(10.0),
+            np.float32(0.00021),
+            np.float32(0.00014),
+        )
+        energy = info["energy"]
+        assert energy["pv"] == 10.0
+        assert info["pure_components"]["trading"] == pytest.approx(
+            0.00014 * energy["sold"] - 0.00021 * energy["bought"], rel=1e-12
+        )
+    # the episode spans the demand file's hours: from its last-but-one row, one step
+    env.reset(options={"profile": "370", "start": len(demand) - 1})
+    *_, truncated, _ = env.step(np.array([0.3], dtype=np.float32))
+    assert truncated
+
+
+def test_upstream_needs_generation_data() -> None:
+    with pytest.raises(ConfigError, match="defect 11"):
+        MicrogridEnv(fidelity="upstream", data={"generation": None})
+    env = MicrogridEnv(fidelity="upstream", data={"market": None, "temp_amb": None})  # these run in the reference
+    obs, _ = env.reset()
+    assert obs[env.feature_names.index("ask")] == np.float32(0.00021)
+
+
+def test_random_episodes_of_the_test_households_warn() -> None:
+    with pytest.warns(TrainingOnTestDataWarning, match='preset="train"'):
+        MicrogridEnv()  # the default preset: training settings on the 2019 test households
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", TrainingOnTestDataWarning)
+        MicrogridEnv(preset="test")  # evaluation: the households in order

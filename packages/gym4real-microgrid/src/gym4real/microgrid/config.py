@@ -13,13 +13,27 @@ class _Section(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
 
+class DummySection(_Section):
+    """Constant series standing in for a missing generation, market or temperature file (reference values)."""
+
+    generation: float = Field(10.0, ge=0, description="Constant PV generation (W).")
+    ask: float = Field(0.00021, ge=0, description="Constant buy price (EUR/Wh).")
+    bid: float = Field(0.00014, ge=0, description="Constant sell price (EUR/Wh).")
+    temp_amb: float = Field(298.15, ge=150, description="Constant ambient temperature (K).")
+
+
 class DataSection(_Section):
-    """The exogenous series: a registered dataset (``demand/test``) or the path of a ``.csv`` file."""
+    """The exogenous series: a registered dataset (``demand/test``), the path of a ``.csv`` file, or null."""
 
     demand: str = Field("demand/test", description="Demand profiles (W), one column per household.")
-    generation: str = Field("generation/test", description="PV generation of the 3 kW plant (W).")
-    market: str = Field("market/test", description="GME prices: `ask` (buy) and `bid` (sell), EUR/Wh.")
-    temp_amb: str = Field("temp_amb/test", description="Daily ambient temperature (K).")
+    generation: str | None = Field(
+        "generation/test", description="PV generation of the 3 kW plant (W); null: `dummy.generation`."
+    )
+    market: str | None = Field(
+        "market/test", description="GME prices: `ask` (buy) and `bid` (sell), EUR/Wh; null: `dummy.ask`/`bid`."
+    )
+    temp_amb: str | None = Field("temp_amb/test", description="Daily ambient temperature (K); null: `dummy.temp_amb`.")
+    dummy: DummySection = DummySection()
     timestep: float = Field(3600.0, gt=0, description="Seconds per row of the demand, PV and market series.")
     temp_timestep: float = Field(86400.0, gt=0, description="Seconds per row of the ambient temperature series.")
 
@@ -104,6 +118,12 @@ class MicrogridConfig(EnvConfig):
     def _consistent(self) -> Self:
         if self.profiles is not None and not self.profiles:
             raise ValueError("profiles must list at least one demand column, or be null for all")
+        if self.fidelity == "upstream" and self.data.generation is None:
+            msg = (
+                'fidelity="upstream" needs `data.generation`: the reference\'s dummy generation crashes (spec '
+                'defect 11); name a generation file, or use fidelity="corrected" for the constant `data.dummy`'
+            )
+            raise ValueError(msg)
         return self
 
     def fix(self, name: str) -> bool:

@@ -17,6 +17,11 @@ import pandas as pd
 from gym4real.core.errors import DataFileError
 
 DOMAIN = "microgrid"
+TEST_DEMAND = "demand/test"
+
+
+class TrainingOnTestDataWarning(UserWarning):
+    """Episodes are drawn at random (as for training) from the households the paper evaluates on."""
 
 
 def data_path(ref: str, data_dir: str | Path | None) -> Path:
@@ -165,13 +170,44 @@ class World:
 
     @classmethod
     def load(
-        cls, demand: Path, generation: Path, market: Path, temperature: Path, step: float, temp_step: float
+        cls,
+        demand: Path,
+        generation: Path | None,
+        market: Path | None,
+        temperature: Path | None,
+        step: float,
+        temp_step: float,
+        dummy: tuple[float, float, float, float] = (10.0, 0.00021, 0.00014, 298.15),
     ) -> World:
-        """Read and cross-check the four files of a split."""
+        """Read and cross-check the files of a split; a missing series (None) is a constant.
+
+        Args:
+            demand: Demand file.
+            generation: PV file, or None for the constant ``dummy[0]`` (W) over the hours of the market
+                file, else of the demand file.
+            market: Price file, or None for the constant ask and bid ``dummy[1:3]`` (EUR/Wh).
+            temperature: Ambient temperature file, or None for the constant ``dummy[3]`` (K) over the days
+                the hourly series span.
+            step: Seconds per hourly row.
+            temp_step: Seconds per temperature row.
+            dummy: The constants standing in for missing files.
+        """
         labels, table = read_demand(demand, step)
-        pv, times = read_generation(generation, step)
-        ask, bid, _ = read_market(market, step)
-        temp, _ = read_temperature(temperature, temp_step)
+        gen_dummy, ask_dummy, bid_dummy, temp_dummy = dummy
+        ask = bid = None
+        if market is not None:
+            ask, bid, _ = read_market(market, step)
+        if generation is not None:
+            pv, times = read_generation(generation, step)
+        else:
+            rows = len(ask) if ask is not None else len(table)
+            pv, times = np.full(rows, gen_dummy), np.arange(rows) * step
+        if ask is None or bid is None:
+            ask, bid = np.full(len(pv), ask_dummy), np.full(len(pv), bid_dummy)
+        if temperature is not None:
+            temp, _ = read_temperature(temperature, temp_step)
+        else:
+            temp = np.full(int(np.ceil(len(pv) * step / temp_step)), temp_dummy)
         if len(ask) != len(pv):
             msg = (
                 f"market file `{market}` has {len(ask)} rows but generation file `{generation}` has {len(pv)}; "

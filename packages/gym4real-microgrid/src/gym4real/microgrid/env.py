@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+import warnings
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -17,7 +18,7 @@ from gym4real.core.errors import DataFileError
 from gym4real.core.perturbation import check_scales
 from gym4real.microgrid.battery import BatteryParams, BatteryTwin, TwinOptions, load_battery
 from gym4real.microgrid.config import MicrogridConfig
-from gym4real.microgrid.data import World, data_path
+from gym4real.microgrid.data import TEST_DEMAND, TrainingOnTestDataWarning, World, data_path
 
 SECONDS_PER_DAY = 86400.0
 SECONDS_PER_YEAR = 86400.0 * 365.25
@@ -59,8 +60,13 @@ def action_error(value: float) -> ValueError:
 
 
 @functools.lru_cache(maxsize=8)
-def _world(paths: tuple[Path, Path, Path, Path], step: float, temp_step: float) -> World:
-    return World.load(*paths, step=step, temp_step=temp_step)
+def _world(
+    paths: tuple[Path, Path | None, Path | None, Path | None],
+    step: float,
+    temp_step: float,
+    dummy: tuple[float, float, float, float],
+) -> World:
+    return World.load(*paths, step=step, temp_step=temp_step, dummy=dummy)
 
 
 @functools.lru_cache(maxsize=8)
@@ -80,7 +86,9 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
     from it (deficit); the rest is sold at the GME ``bid`` price or bought at the ``ask`` price. Data:
     demand profiles (W), PV (W), prices (EUR/Wh) hourly, ambient temperature (K) daily; train 2015-2018
     with 370 households (preset ``train``), test 2019 with 28 households 370..397 (presets ``default``,
-    ``test``).
+    ``test``). The training households are not available offline, so the ``default`` preset draws random
+    (training) episodes from the test households; any env doing so warns with
+    :class:`~gym4real.microgrid.data.TrainingOnTestDataWarning`.
 
     ## Action Space
     ``Box(0, 1, (1,), float32)``: the fraction ``a`` of the net power routed to (or taken from) the
@@ -169,8 +177,13 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
        the reference's envs of one process share the global one), folds the start time to the first
        year (12) and ignores ``profile_order``.
 
-    Both modes: fresh ``info`` dicts every step and no mutation of the data (10); generation data is
-    required and the episode length is explicit (``max_steps``) (11); a missing or malformed data file
+    Missing series (11): the reference runs without market or temperature files on constants, but its
+    constant generation crashes. Corrected: ``data.generation``, ``data.market`` or ``data.temp_amb`` set to
+    null use the constants of ``data.dummy`` (10 W of PV, 0.21 / 0.14 EUR/kWh, 298.15 K: the reference's
+    training values) over the hours of the other files; upstream needs generation data.
+
+    Both modes: fresh ``info`` dicts every step and no mutation of the data (10); the episode length is
+    explicit (``max_steps``); a missing or malformed data file
     raises ``DataFileError`` naming the file (13); the first data row is only observed (14); table
     lookups are precomputed Python arithmetic, no SciPy in the step (15).
 
@@ -198,6 +211,15 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
         self._aligned = cfg.fix("data_alignment")
         self._soh_cost = cfg.fix("standard_rainflow")
         self.world = self._load_world()
+        if cfg.data.demand == TEST_DEMAND and cfg.profile_order == "random":
+            msg = (
+                "MicrogridEnv draws random episodes from the test households (2019, 370..397), the ones the paper "
+                "evaluates on: the training households (profiles_train.csv) are not available offline, so the "
+                "`default` preset trains on the test split and an agent trained on it is not evaluated on "
+                "held-out data. Place profiles_train.csv in <GYM4REAL_DATA_DIR>/microgrid/demand/ and use "
+                'preset="train", or pass training profiles with data={"demand": "<file>.csv"}.'
+            )
+            warnings.warn(msg, TrainingOnTestDataWarning, stacklevel=2)
         b = cfg.battery
         files = (b.pack, b.electrical, b.thermal, b.aging, b.tables_dir)
         self.battery_params = _battery(cfg.data_dir, files)
@@ -245,9 +267,12 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
     def _load_world(self) -> World:
         cfg = self.config
         d = cfg.data
-        paths = []
+        paths: list[Path | None] = []
         for what in ("demand", "generation", "market", "temp_amb"):
             ref = getattr(d, what)
+            if ref is None:  # the constant of `data.dummy`
+                paths.append(None)
+                continue
             try:
                 paths.append(data_path(ref, cfg.data_dir))
             except DataFileError as exc:
@@ -260,7 +285,8 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
                     )
                     raise DataFileError(msg) from exc
                 raise
-        return _world(tuple(paths), d.timestep, d.temp_timestep)  # type: ignore[arg-type]
+        dummy = (d.dummy.generation, d.dummy.ask, d.dummy.bid, d.dummy.temp_amb)
+        return _world(tuple(paths), d.timestep, d.temp_timestep, dummy)  # type: ignore[arg-type]
 
     # -- exogenous perturbation ----------------------------------------------------------------------
 
