@@ -1,9 +1,15 @@
-"""Inverse kinematics of the TX2-60 on the MJCF itself (MuJoCo Jacobians, damped least squares).
+"""Inverse kinematics of the TX2-60 on the MJCF itself (MuJoCo forward kinematics and Jacobians).
 
-Replaces the reference's ikpy chain built from the URDF (same kinematics: the MJCF joint offsets
-along their own axes do not move the frames). The tool must point straight down; the yaw about the
-vertical is either left free (the reference's orientation mode "Z", joints 1-6 solved) or fixed by
-holding joint 6 at the commanded grasp angle (joints 1-5 solved).
+The reference plans with an ikpy chain built from the URDF (same kinematics: the MJCF joint offsets
+along their own axes do not move the frames). Two solvers, one per tool convention:
+
+* :meth:`ArmKinematics.solve_free_yaw`, the reference's problem as ikpy poses it: the chain's end frame
+  (the left finger's, tilted 1 degree about the flange x axis in the URDF) at the target with its z axis
+  pointing down, yaw free, all six joints solved by SciPy's bounded least squares from the given seed
+  within the URDF's joint limits, best effort returned. From the reference's zero seed it lands on the
+  reference's wrist branch (joint 4 near 0).
+* :meth:`ArmKinematics.solve`, damped least squares with joint 6 held at the grasp angle (corrected mode,
+  the point between the fingers) or free.
 """
 
 from __future__ import annotations
@@ -11,11 +17,25 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import least_squares
 
 from gym4real.robofeeder._gl import mujoco
 
 ARM_JOINTS = tuple(f"joint_{i}" for i in range(1, 7))
 DOWN = np.array([0.0, 0.0, -1.0])
+FLANGE_AXIS = np.array([0.0, 0.0, 1.0])
+#: Joint limits (rad) of ``tx2_60.urdf``, which the reference's ikpy chain optimises within (the MJCF's
+#: ranges are these rounded to 5 decimals).
+URDF_LOWER = np.array(
+    [0.0, -2.2252947962927703, -2.6616271092913526, -4.71238898038469, -2.111848394913139, -4.71238898038469]
+)
+URDF_UPPER = np.array(
+    [6.283185307179586, 2.2252947962927703, 2.6616271092913526, 4.71238898038469, 2.3125612588924866, 4.71238898038469]
+)
+#: The end frame of the reference's chain (``tx2_60.urdf``, joint ``tool0_leftfinger``): the left finger's
+#: origin in the flange frame (m), and its z axis, tilted by the joint's roll of 0.0174533 rad.
+LEFT_FINGER_TOOL = np.array([0.0, -0.0073, 0.075])
+LEFT_FINGER_AXIS = np.array([0.0, -np.sin(0.0174533), np.cos(0.0174533)])
 
 
 @dataclass(frozen=True)
@@ -34,12 +54,14 @@ class ArmKinematics:
     Args:
         model: The compiled scene (only read).
         tool_offset: The controlled point in the flange frame (m).
+        tool_axis: The tool axis (unit vector) in the flange frame, to point down.
     """
 
-    def __init__(self, model: mujoco.MjModel, tool_offset: np.ndarray) -> None:
+    def __init__(self, model: mujoco.MjModel, tool_offset: np.ndarray, tool_axis: np.ndarray = FLANGE_AXIS) -> None:
         self.model = model
         self.data = mujoco.MjData(model)
         self.tool_offset = np.asarray(tool_offset, dtype=float)
+        self.tool_axis = np.asarray(tool_axis, dtype=float)
         self.body = model.body("flange").id
         joints = [model.joint(name) for name in ARM_JOINTS]
         self.qadr = np.array([j.qposadr[0] for j in joints])
@@ -85,7 +107,7 @@ class ArmKinematics:
         err_p = err_r = np.inf
         for _ in range(iterations):
             point, rot = self.forward(q)
-            axis = rot[:, 2]
+            axis = rot @ self.tool_axis
             e_pos = target - point
             e_rot = np.cross(axis, DOWN)[:2]
             if axis @ DOWN < 0.0:  # pointing up: the cross product vanishes, push towards any horizontal tilt
@@ -113,3 +135,24 @@ class ArmKinematics:
                 best = result
         assert best is not None
         return best
+
+    def solve_free_yaw(self, target: np.ndarray, seed: np.ndarray, tol: float = 1e-4) -> IKResult:
+        """The reference planner's inverse kinematics: tool point at ``target`` (world), tool axis down, yaw free.
+
+        The problem ikpy solves for the reference: residuals (tool point - target, tool axis - down) over
+        joints 1-6, SciPy's trust-region reflective least squares from ``seed`` within the URDF's joint
+        limits, finite-difference Jacobian. Its best effort is returned, converged or not (``ok`` says which,
+        with the tolerances of :meth:`solve`).
+        """
+        target = np.asarray(target, dtype=float)
+
+        def residuals(q: np.ndarray) -> np.ndarray:
+            point, rot = self.forward(q)
+            return np.concatenate([point - target, rot @ self.tool_axis - DOWN])
+
+        seed = np.clip(np.asarray(seed, dtype=float), URDF_LOWER, URDF_UPPER)
+        q = least_squares(residuals, seed, bounds=(URDF_LOWER, URDF_UPPER)).x
+        point, rot = self.forward(q)
+        err_p = float(np.linalg.norm(point - target))
+        err_r = float(np.linalg.norm(np.cross(rot @ self.tool_axis, DOWN)))
+        return IKResult(q=q, position_error=err_p, axis_error=err_r, ok=bool(err_p < 10 * tol and err_r < 100 * tol))

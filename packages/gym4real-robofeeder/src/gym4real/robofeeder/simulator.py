@@ -15,7 +15,7 @@ import numpy as np
 from gym4real.robofeeder._gl import mujoco
 from gym4real.robofeeder.camera import CameraModel
 from gym4real.robofeeder.config import RoboFeederConfig
-from gym4real.robofeeder.kinematics import ArmKinematics
+from gym4real.robofeeder.kinematics import LEFT_FINGER_AXIS, LEFT_FINGER_TOOL, ArmKinematics, IKResult
 from gym4real.robofeeder.rendering import LazyRenderer
 from gym4real.robofeeder.scene import build_model
 
@@ -29,9 +29,8 @@ CLOSE_AFTER_TICK = 9
 ARM_TICKS = 20
 EXTRA_TICKS = 5
 SAMPLES_PER_SEGMENT = 5
-#: Points of the flange frame the IK places: between the finger origins, or the left finger origin.
+#: The point of the flange frame the corrected IK places: between the finger origins.
 CENTRE_TOOL = np.array([0.0, 0.0, 0.075])
-LEFT_FINGER_TOOL = np.array([0.0, -0.0073, 0.075])
 #: Top of the bin floor `PickBoxPlane` (m, world).
 PLANE_TOP = 0.18535
 #: Output tray: placed objects rest on the floor here, out of the camera's view (corrected mode).
@@ -148,7 +147,7 @@ class Simulator:
         self.object_dofadr = np.array([m.jnt_dofadr[m.body_jntadr[b]] for b in self.object_bodies])
         self.object_sites = np.array([m.site(f"site_obj{i}").id for i in range(self.n)])
         centred = config.fix("centred_tool")
-        self.kin = ArmKinematics(m, CENTRE_TOOL if centred else LEFT_FINGER_TOOL)
+        self.kin = ArmKinematics(m, CENTRE_TOOL) if centred else ArmKinematics(m, LEFT_FINGER_TOOL, LEFT_FINGER_AXIS)
         self.arm_qadr = self.kin.qadr
         self.picked = np.zeros(self.n, dtype=bool)
         self.last_q = np.zeros(6)
@@ -309,24 +308,34 @@ class Simulator:
         size = self.config.image_size
         return bool(w.x_limit * scale <= u <= size - 1 - w.x_limit * scale and w.y_down * scale <= v <= w.y_up * scale)
 
+    def _pick_poses(self, pick: np.ndarray, start: np.ndarray, theta: float) -> tuple[IKResult, IKResult]:
+        """IK of the pre-pick and pick poses above and at world point ``pick``, planning from joints ``start``.
+
+        Corrected: joint 6 held at ``theta``, seeded above the bin centre first (the arm straight up is
+        singular for a downward tool). Upstream: the reference's free-yaw IK seeded with ``start`` (always
+        zero there), the pick pose seeded with the pre-pick pose, no fallback.
+        """
+        pre = pick + np.array([0.0, 0.0, PRE_PICK_LIFT])
+        if self.config.fix("centred_tool"):
+            wp0 = self.kin.solve_from(pre, [self.home_q, start], fixed_j6=theta)
+            return wp0, self.kin.solve_from(pick, [wp0.q, self.home_q], fixed_j6=theta)
+        wp0 = self.kin.solve_free_yaw(pre, start)
+        return wp0, self.kin.solve_free_yaw(pick, wp0.q)
+
     def plan(self, xy: np.ndarray, theta: float) -> tuple[np.ndarray, float, float, bool]:
         """The reference's 20 waypoints (joints 1-6) to pre-pick, pick, retreat and place.
 
         Returns:
             (plan (20 x 6), pick-pose IK error (m), planned gripper yaw (rad), whether every IK converged).
         """
-        centred = self.config.fix("centred_tool")
-        fixed = theta if centred else None
         pick = np.array([xy[0], xy[1], BASE_Z + PICK_Z])
-        pre = pick + np.array([0.0, 0.0, PRE_PICK_LIFT])
         place = PLACE + np.array([0.0, 0.0, BASE_Z])
         start = self.last_q.copy()
-        # the reference seeds from the last pose (always zero there); the arm straight up is singular for a
-        # downward tool, so a solution above the bin centre is the fallback (and the first seed when corrected)
-        seeds = [self.home_q, start] if centred else [start, self.home_q]
-        wp0 = self.kin.solve_from(pre, seeds, fixed_j6=fixed)
-        wp1 = self.kin.solve_from(pick, [wp0.q, self.home_q], fixed_j6=fixed)
-        wp3 = self.kin.solve_from(place, [wp0.q, self.home_q], fixed_j6=fixed)
+        wp0, wp1 = self._pick_poses(pick, start, theta)
+        if self.config.fix("centred_tool"):
+            wp3 = self.kin.solve_from(place, [wp0.q, self.home_q], fixed_j6=theta)
+        else:
+            wp3 = self.kin.solve_free_yaw(place, wp0.q)
         _, rot = self.kin.forward(np.concatenate([wp1.q[:5], [theta]]))
         gripper_yaw = float(np.arctan2(rot[1, 0], rot[0, 0]))
         s = np.linspace(0.0, 1.0, SAMPLES_PER_SEGMENT)[:, None]
@@ -344,11 +353,9 @@ class Simulator:
         key = (round(float(xy[0]), 4), round(float(xy[1]), 4))
         c = self._yaw_cache.get(key)
         if c is None:
-            centred = self.config.fix("centred_tool")
             pick = np.array([key[0], key[1], BASE_Z + PICK_Z])  # a pure function of the cache key
-            fixed = 0.0 if centred else None
-            wp0 = self.kin.solve_from(pick + np.array([0.0, 0.0, PRE_PICK_LIFT]), [self.home_q], fixed_j6=fixed)
-            wp1 = self.kin.solve_from(pick, [wp0.q, self.home_q], fixed_j6=fixed)
+            start = self.home_q if self.config.fix("centred_tool") else np.zeros(6)
+            _, wp1 = self._pick_poses(pick, start, 0.0)
             _, rot = self.kin.forward(np.concatenate([wp1.q[:5], [0.0]]))
             c = float(np.arctan2(rot[1, 0], rot[0, 0]))
             if len(self._yaw_cache) > 4096:
@@ -356,18 +363,21 @@ class Simulator:
             self._yaw_cache[key] = c
         return float((c - yaw) % (2.0 * np.pi))
 
-    def _run_controller(self, plan: np.ndarray, theta: float) -> int:
-        """Execute the plan with the reference's tick timings; return the physics steps taken."""
+    def _run_controller(self, plan: np.ndarray, theta: float) -> np.ndarray:
+        """Execute the plan with the reference's tick timings; return the object positions at the last tick.
+
+        The reference's control callback runs inside ``mj_step`` before the integration: a tick at time t
+        applies its command to the step from t, and the pick ends after the step of its last tick.
+        """
         c = self.config.controller
         d = self.data
         d.ctrl[6:8] = c.open_gripper
         d.ctrl[5] = theta
         gripper = c.open_gripper
-        last_tick = d.time
+        last_tick = 0.0  # the reference's `step_time` starts at zero: the first tick fires at the first step
         limit = c.short_pause
         tick = extra = 0
         closing = False
-        steps = 0
         while True:
             # advance to the first step at which `time - last_tick > limit` (as the reference's callback sees it)
             t = d.time
@@ -376,7 +386,6 @@ class Simulator:
                 t += self.dt
                 n += 1
             self._step(n)
-            steps += n
             last_tick = d.time
             if closing:
                 gripper -= c.delta_gripper
@@ -393,7 +402,9 @@ class Simulator:
             else:
                 extra += 1
                 if extra >= EXTRA_TICKS:
-                    return steps
+                    final = self.object_positions()
+                    self._step(1)
+                    return final
 
     def pick(self, xy: np.ndarray, theta: float, pixel: np.ndarray | None = None) -> PickOutcome:
         """Attempt to pick at world ``xy`` with joint 6 at ``theta``.
@@ -425,8 +436,7 @@ class Simulator:
                 outcome.feasible = False
                 return outcome
         before = self.physics_steps
-        self._run_controller(plan, theta)
-        final = self.object_positions()
+        final = self._run_controller(plan, theta)
         goal = np.asarray(cfg.success_point)
         for i in range(self.n):
             if not self.picked[i] and np.linalg.norm(final[i] - goal) < cfg.success_radius:
