@@ -26,7 +26,7 @@ def test_extra_figures(tmp_path: Path) -> None:
     paths = figures.picking_heatmap(tmp_path, ["oracle"], grid=2, seeds=1)
     assert all(p.is_file() and p.stat().st_size > 0 for p in paths)
     rows = paths[1].read_text().splitlines()
-    assert rows[0] == "policy,x,y,success_rate" and len(rows) == 5
+    assert rows[0] == "policy,x,y,success_rate,reachable" and len(rows) == 5
     paths = figures.planning_returns(tmp_path, ["random"], objects=[1, 2], episodes=1, seeds=2)
     assert all(p.is_file() for p in paths)
     assert len(paths[1].read_text().splitlines()) == 1 + 2 * 2

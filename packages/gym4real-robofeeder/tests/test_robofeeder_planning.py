@@ -134,13 +134,28 @@ def test_pretrained_mean_matches_the_graph_samples() -> None:
     assert np.all(np.abs(samples.mean(axis=0) - mean) < 4 * samples.std(axis=0) / np.sqrt(400) + 1e-4)
 
 
-def test_pretrained_planning_agent_and_baselines(env) -> None:
+def test_pretrained_planning_model_ignores_its_input(env) -> None:
+    # documented in agents.py, the baseline's registration and the README: a new model file that reads its input
+    # fails this test, and those notes are to be revised
     agent = OnnxPlanningAgent(PRETRAINED / "robofeeder-planning.onnx")
-    obs, _ = env.reset(seed=0)
-    action = agent(obs)
-    assert isinstance(action, int) and 0 <= action <= 3
-    assert 0 <= pretrained(env)(obs) <= 3
+    rng = np.random.default_rng(0)
+    observations = [env.reset(seed=seed)[0] for seed in range(3)]
+    observations += [np.ones((3, 50, 50), np.float32), rng.random((3, 50, 50), dtype=np.float32)]
+    assert not np.allclose(observations[0], observations[1])  # different scenes
+    logits = np.array([agent.logits(obs) for obs in observations])
+    np.testing.assert_allclose(logits, np.broadcast_to(logits[0], logits.shape), rtol=0, atol=1e-6)
+    assert [pretrained(env)(obs) for obs in observations] == [1] * len(observations)
+    assert agent(np.zeros((3, 50, 50), np.float32)) == 0  # only an all-black observation gives other logits
+
+
+def test_pretrained_picking_baseline_picks() -> None:
     picking = gym.make("gym4real/robofeeder-picking-v0")
-    obs, _ = picking.reset(seed=0)
-    assert picking.action_space.contains(pretrained(picking)(obs))
+    policy = pretrained(picking)
+    wins = 0
+    for seed in range(8):
+        obs, _ = picking.reset(seed=seed)
+        action = policy(obs)
+        assert picking.action_space.contains(action)  # the corrected baseline clips the agent's action
+        wins += picking.step(action)[4]["success"]
     picking.close()
+    assert wins >= 2  # 3 of these 8 measured; the fixed baseline picks none of them

@@ -107,6 +107,11 @@ class OnnxPickingAgent(_OnnxPolicy):
 class OnnxPlanningAgent(_OnnxPolicy):
     """The pretrained planning agent: (N, 50, 50) crops -> crop index (1..N) or 0 (idle).
 
+    The reference's ``robofeeder-planning.onnx`` ignores its input: the first tanh layer of its policy head
+    (256 units) is saturated at +-1 for any observation brighter than about 0.01, so its logits are the same
+    for every real observation (all ones and noise too) and the argmax is always crop 1; only an all-black
+    observation gives other logits (idle). As a baseline it scores below the random one.
+
     Args:
         path: The ONNX file (``robofeeder-planning.onnx`` layout).
         mode: ``"mean"`` (argmax of the logits) or ``"sample"`` (softmax sample from the caller's generator).
@@ -116,9 +121,13 @@ class OnnxPlanningAgent(_OnnxPolicy):
         super().__init__(path)
         self.mode = mode
 
+    def logits(self, obs: np.ndarray) -> np.ndarray:
+        """The action-net output (N + 1 logits) for one observation."""
+        return self._head(obs).astype(np.float64)
+
     def __call__(self, obs: np.ndarray, rng: np.random.Generator | None = None) -> int:
         """The action for one observation."""
-        logits = self._head(obs).astype(np.float64)
+        logits = self.logits(obs)
         if self.mode == "mean":
             return int(np.argmax(logits))
         if rng is None:

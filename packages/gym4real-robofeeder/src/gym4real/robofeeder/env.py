@@ -178,6 +178,12 @@ class RoboFeederPickingEnv(RoboFeederBaseEnv):
     ``n_objects`` (1) hinges placed uniformly in the spawn area (upper part of the image, at least 0.27
     normalised units apart), yaw from the reference's quaternion grid, settled on the bin floor.
 
+    The arm reaches about 0.59 m from its axis with the tool pointing down (the pre-pick pose 25 cm above
+    the part binds first): the image rows below v ~ 195-225 px (300-px image, depending on u) are out of
+    reach in both modes. The spawn area lies within reach; in the corrected mode a spawn area reaching
+    beyond raises ``ConfigError``. The ``placements`` reset option places objects anywhere (the reference's
+    heat-map grid extends to v = 270 px, out of reach).
+
     ## Episode End
 
     Terminated when every object is picked; truncated after T = 2 attempts.

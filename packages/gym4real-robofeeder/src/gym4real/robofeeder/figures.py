@@ -3,6 +3,8 @@
 * :func:`picking_heatmap`: success rate of picking-v0 policies over a grid of object placements in the
   image (the reference notebook ``picking_performance.ipynb``: a 10 x 10 grid of normalised image
   coordinates in [-0.8, 0.8], 5 orientation seeds, one object, one attempt), drawn over the camera frame.
+  The grid extends beyond the arm's reach (the lower image rows, more than about 0.59 m from the robot's
+  axis): those cells are hatched, and the mean is also given over the reachable cells.
 * :func:`planning_returns`: mean return of planning policies vs the number of objects in the bin
   (the paper: 50 episodes x 5 seeds per point).
 
@@ -63,6 +65,26 @@ def heatmap_rates(
     return rates, coords
 
 
+def reachable_cells(coords: np.ndarray, env_kwargs: dict[str, Any] | None = None) -> np.ndarray:
+    """Whether the arm reaches each cell centre of the heat-map grid (rows = image y, columns = image x)."""
+    from gym4real.robofeeder.env import RoboFeederPickingEnv
+
+    env = RoboFeederPickingEnv(preset="test", **(env_kwargs or {}))
+    try:
+        size = env.size
+        return np.array(
+            [
+                [
+                    env.sim.arm_reaches(env.sim.camera.pixel_to_world((np.array([x, y]) + 1.0) * size / 2.0))
+                    for x in coords
+                ]
+                for y in coords
+            ]
+        )
+    finally:
+        env.close()
+
+
 def _background(env_kwargs: dict[str, Any] | None = None) -> np.ndarray:
     """The empty bin seen by the top-down camera (objects out of view)."""
     from gym4real.robofeeder.env import RoboFeederPickingEnv
@@ -87,10 +109,13 @@ def picking_heatmap(
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.patches import Rectangle
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     results = {p: heatmap_rates(p, grid, seeds, env_kwargs=env_kwargs) for p in policies}
+    coords = next(iter(results.values()))[1]
+    reachable = reachable_cells(coords, env_kwargs)
     frame = _background(env_kwargs)
     size = frame.shape[0]
     fig, axes = plt.subplots(1, len(policies), figsize=(4.6 * len(policies), 4.4), squeeze=False)
@@ -99,19 +124,25 @@ def picking_heatmap(
         lo, hi = (coords[0] - half + 1) * size / 2, (coords[-1] + half + 1) * size / 2
         ax.imshow(frame, extent=(0, size, size, 0))
         im = ax.imshow(rates, extent=(lo, hi, hi, lo), cmap="viridis", vmin=0, vmax=1, alpha=0.6)
-        ax.set(title=f"{name}: mean success {rates.mean():.2f}", xlabel="image u (px)", ylabel="image v (px)")
+        cell = (hi - lo) / len(coords)
+        for r, c in zip(*np.nonzero(~reachable), strict=True):
+            ax.add_patch(Rectangle((lo + c * cell, lo + r * cell), cell, cell, fill=False, hatch="//", lw=0))
+        within = f"{rates[reachable].mean():.2f}" if reachable.any() else "-"
+        title = f"{name}: mean success {rates.mean():.2f}\n{within} within reach (hatched: out of reach)"
+        ax.set(xlim=(0, size), ylim=(size, 0), xlabel="image u (px)", ylabel="image v (px)")
+        ax.set_title(title, fontsize=9)
     fig.colorbar(im, ax=axes[0].tolist(), label="success rate", shrink=0.8)
-    fig.suptitle(f"{PICKING_V0}: picking success over the workspace ({seeds} orientation seeds per cell)")
+    fig.suptitle(f"{PICKING_V0}: picking success over the workspace\n({seeds} orientation seeds per cell)")
     png, table = out / "picking_heatmap.png", out / "picking_heatmap.csv"
     fig.savefig(png, dpi=110)
     plt.close(fig)
     with table.open("w", newline="") as f:
         writer = csv.writer(f)
-        writer.writerow(["policy", "x", "y", "success_rate"])
+        writer.writerow(["policy", "x", "y", "success_rate", "reachable"])
         for name, (rates, coords) in results.items():
             for r, y in enumerate(coords):
                 for c, x in enumerate(coords):
-                    writer.writerow([name, f"{x:.4f}", f"{y:.4f}", f"{rates[r, c]:.4f}"])
+                    writer.writerow([name, f"{x:.4f}", f"{y:.4f}", f"{rates[r, c]:.4f}", int(reachable[r, c])])
     return [png, table]
 
 

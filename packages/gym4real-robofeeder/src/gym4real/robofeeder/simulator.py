@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from gym4real.core.errors import ConfigError
 from gym4real.robofeeder._gl import mujoco
 from gym4real.robofeeder.camera import CameraModel
 from gym4real.robofeeder.config import RoboFeederConfig
@@ -39,6 +40,9 @@ TRAY = np.array([0.45, -0.45])
 REST_LINEAR = 5e-3
 REST_ANGULAR = 0.1
 SETTLE_CHUNK = 20
+#: An object's grasp site lies up to this far (m) from its body origin: the reach check of the spawn area
+#: looks this much farther from the robot's axis than the area's corners.
+SITE_REACH_MARGIN = 0.02
 #: Graspable spawns keep the grasp angle this far (rad) inside [0, pi].
 GRASP_MARGIN = 0.1
 MIN_SETTLE = 40
@@ -168,6 +172,31 @@ class Simulator:
         self._footprint: np.ndarray | None = None
         self.renderer = LazyRenderer(m, config.image_size, config.image_size, effects=config.render_effects)
         self.physics_steps = 0
+        if config.fix("unfeasible_targets") and config.spawn.shuffle:
+            self._check_spawn_within_reach()
+
+    def _check_spawn_within_reach(self) -> None:
+        """Refuse a spawn area reaching beyond the arm: objects spawned there could never be picked.
+
+        The arm reaches about 0.59 m from its axis with the tool pointing down (the pre-pick pose 25 cm above
+        the part binds first), image rows v > ~200-230 px; reach depends on the distance from the axis only,
+        so the corners of the spawn area are the points to check.
+        """
+        s = self.config.spawn
+        for x in s.x_range:
+            for y in s.y_range:
+                pixel = (np.array([x, y]) + 1.0) * (self.config.image_size / 2.0)
+                xy = self.camera.pixel_to_world(pixel)
+                site = xy * (1.0 + SITE_REACH_MARGIN / float(np.linalg.norm(xy)))
+                if not self.arm_reaches(site):
+                    msg = (
+                        f"the spawn area reaches image point {pixel.round(1).tolist()} (normalised ({x}, {y})), "
+                        f"{np.linalg.norm(xy):.3f} m from the robot's axis, where the arm cannot pick with the tool "
+                        "pointing down (its reach ends near 0.59 m, image rows v > ~195-225 px): narrow "
+                        "`spawn.x_range` / `spawn.y_range` (the default (-0.8, 0.8) x (-0.75, 0.1) is within reach), "
+                        "or set `fixes.unfeasible_targets: false` to spawn there anyway"
+                    )
+                    raise ConfigError(msg)
 
     # ------------------------------------------------------------------ state
     def close(self) -> None:
@@ -307,6 +336,10 @@ class Simulator:
         u, v = float(pixel[0]), float(pixel[1])
         size = self.config.image_size
         return bool(w.x_limit * scale <= u <= size - 1 - w.x_limit * scale and w.y_down * scale <= v <= w.y_up * scale)
+
+    def arm_reaches(self, xy: np.ndarray) -> bool:
+        """Whether the pick script's pre-pick, pick and place poses for world ``xy`` have IK solutions."""
+        return self.plan(np.asarray(xy, dtype=float), np.pi / 2)[3]
 
     def _pick_poses(self, pick: np.ndarray, start: np.ndarray, theta: float) -> tuple[IKResult, IKResult]:
         """IK of the pre-pick and pick poses above and at world point ``pick``, planning from joints ``start``.
