@@ -14,9 +14,8 @@ What it records, for ``packages/gym4real-robofeeder/tests/test_robofeeder_golden
 * ``grasp_grid``: one object placed at each of a few image points and yaws, settled as the reference's
   ``reset`` does (900 steps, then the one step of ``get_state``); then grasps commanded around the object's
   grasp site at the reference's grasp angle (its 2.35-offset formula) and off it. Per grasp: success, the
-  physics steps of the pick, the planned joints 1-5 at pre-pick, pick and place, and the object's final
-  position. The picking-v0/planning envs cannot be built (the detector file is missing in the reference),
-  so the simulator is driven directly.
+  physics steps of the pick and the planned joints 1-5 at the pick pose. The picking-v0/planning envs cannot
+  be built (the detector file is missing in the reference), so the simulator is driven directly.
 * ``fixed_baseline``: picking-v1 episodes of the reference's picking baseline (action (0, 0, 0)), spawns
   drawn by the reference under ``np.random.seed(s)`` and ``random.seed(s)`` (the reference never seeds
   ``random``); the spawn draw is recorded so that our upstream env can replay it through reset options
@@ -116,7 +115,6 @@ def grasp_grid(sim) -> list[dict]:
                     "success": bool(result == 1),
                     "steps": round((sim.data.time - start) / sim.model.opt.timestep),
                     "pick_q": plan[9][1:6].tolist(),
-                    "final_position": [float(v) for v in sim.finalObjsPos[0]],
                 }
             )
         scenes.append(

@@ -165,7 +165,7 @@ def gym4real_register_baselines() -> list[BaselineSpec]:
             "gym4real.robofeeder.baselines:pretrained",
             "the reference's pretrained PPO planning agent (ONNX), argmax of its logits; the model ignores its "
             "input (saturated first tanh layer: the same logits for every observation), so it always picks crop 1 "
-            "and scores below `random`",
+            "and never idles",
         ),
         BaselineSpec(
             PLANNING_V0,

@@ -110,7 +110,7 @@ class OnnxPlanningAgent(_OnnxPolicy):
     The reference's ``robofeeder-planning.onnx`` ignores its input: the first tanh layer of its policy head
     (256 units) is saturated at +-1 for any observation brighter than about 0.01, so its logits are the same
     for every real observation (all ones and noise too) and the argmax is always crop 1; only an all-black
-    observation gives other logits (idle). As a baseline it scores below the random one.
+    observation gives other logits (idle). As a baseline it never idles: it picks whatever is in crop 1.
 
     Args:
         path: The ONNX file (``robofeeder-planning.onnx`` layout).
