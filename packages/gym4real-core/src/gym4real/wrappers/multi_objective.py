@@ -24,6 +24,10 @@ class MultiObjective(gym.Env[Any, Any]):
         **kwargs: ``make()`` arguments when ``env`` is an id.
     """
 
+    #: The render modes a Gym4ReaL env may have (``gymnasium.make`` reads them from the class); each
+    #: instance holds its owned env's ``metadata``, and the owned env rejects a mode it lacks.
+    metadata = {"render_modes": ["ansi", "rgb_array"], "render_fps": 4}
+
     def __init__(self, env: gym.Env[Any, Any] | str, components: Sequence[str] | None = None, **kwargs: Any) -> None:
         self.env = gym.make(env, **kwargs) if isinstance(env, str) else env
         names = components or getattr(self.env.unwrapped, "reward_component_names", None)

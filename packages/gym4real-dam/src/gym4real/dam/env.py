@@ -7,7 +7,7 @@ import random
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import gymnasium as gym
 import numpy as np
@@ -19,6 +19,9 @@ from gym4real.core.perturbation import check_scales
 from gym4real.dam.config import DamConfig
 from gym4real.dam.data import calendar_days, read_daily_column, read_yearly
 from gym4real.dam.lake import SECONDS_PER_DAY, Lake, deficit_weight
+
+if TYPE_CHECKING:
+    from gym4real.dam.rendering import DamRenderer
 
 COMPONENTS = ("deficit", "overflow", "starving", "wasted_water", "clipping")
 PERTURBABLE = ("lake_surface", "inflow")
@@ -105,6 +108,8 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
     ``gymnasium.make("gym4real/dam-v0", config=None, preset=None, render_mode=None, **overrides)``:
     presets ``default``/``train`` (52 training years, random), ``test`` (13 test years, in order),
     ``validation`` (13 training years, in order); overrides are :class:`DamConfig` fields.
+    ``render_mode``: ``"ansi"`` (a line of text) or ``"rgb_array"`` (480 x 320 frames: the level against
+    the thresholds, today's inflow, release and demand, and the episode's traces).
     Perturbable parameters (``perturbable``, set with :meth:`perturb`, e.g. by
     ``gym4real.wrappers.ExogenousPerturbation``): ``lake_surface`` (the surface of the mass balance, and
     with it the evaporated volume) and ``inflow`` (every day's inflow), in both fidelity modes.
@@ -140,7 +145,7 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
     * v0: Gym4ReaL v1.0 dynamics, corrected by default.
     """
 
-    metadata = {"render_modes": ["ansi"], "render_fps": 4}
+    metadata = {"render_modes": ["ansi", "rgb_array"], "render_fps": 8}
     reward_component_names = COMPONENTS
     perturbable: tuple[str, ...] = PERTURBABLE
     action_space: spaces.Box
@@ -158,6 +163,11 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, not {render_mode!r}")
         self.render_mode = render_mode
+        self._renderer: DamRenderer | None = None
+        if render_mode == "rgb_array":
+            from gym4real.dam.rendering import DamRenderer
+
+            self._renderer = DamRenderer(cfg.sim_horizon, cfg.flood_level, cfg.starving_level)
         self._upstream = cfg.fidelity == "upstream"
         self._fixes = fixes = cfg.resolved_fixes()
         lk = cfg.lake
@@ -422,6 +432,8 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
         self._level = level
         self._storage = self.lake.level_to_storage(level)
         self._levels = [level]
+        if self._renderer is not None:
+            self._renderer.start()
 
     @property
     def year(self) -> int:
@@ -567,6 +579,8 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
         self._storage = storage
         self._level = level
         self._levels.append(level)
+        if self._renderer is not None:
+            self._renderer.record(release)
 
         # reward: the reference's expressions, in its order of operations
         overflow = -1.0 if level > self._flood else 0.0
@@ -646,11 +660,18 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
         n = min(len(recorded), len(self._levels))
         return math.sqrt(sum((self._levels[i] - recorded[i]) ** 2 for i in range(n)) / n)
 
-    def render(self) -> str | None:
-        """One line of text (``render_mode="ansi"``): year, day, level, storage and average demand."""
+    def render(self) -> str | np.ndarray | None:
+        """The current state: ``ansi``, one line of text; ``rgb_array``, an ``H x W x 3`` uint8 frame.
+
+        The text holds year, day, level, storage and average demand; the frame (:mod:`gym4real.dam.rendering`)
+        the lake against its thresholds, today's flows and the episode's traces.
+        """
+        day = self._obs_day[self._t] + 1
+        if self._renderer is not None:
+            ep = self._ep
+            return self._renderer.frame(ep.year, day, self._levels, ep.inflow, ep.demand)
         if self.render_mode != "ansi":
             return None
-        day = self._obs_day[self._t] + 1
         return (
             f"{self._ep.year} day {day:3d}: level {self._level:+.3f} m, storage {self._storage / 1e6:.1f} Mm3, "
             f"average demand {self._ead:.1f} m3/s\n"

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import gymnasium as gym
 import numpy as np
@@ -12,6 +12,9 @@ from gymnasium import spaces
 
 from gym4real.elevator import arrivals
 from gym4real.elevator.config import ElevatorConfig
+
+if TYPE_CHECKING:
+    from gym4real.elevator.rendering import ElevatorRenderer
 
 DOWN, OPEN, UP = 0, 1, 2
 
@@ -54,7 +57,8 @@ class ElevatorEnv(gym.Env[dict[str, Any], int]):
     ``gymnasium.make("gym4real/elevator-v0", config=None, preset=None, render_mode=None, **overrides)``:
     ``config`` is an :class:`ElevatorConfig`, a mapping or a YAML path; ``preset`` is ``"default"`` or
     ``"test"``; overrides are config fields (``fidelity="upstream"``, ``reward_coeff=5.0``, ...).
-    ``render_mode="ansi"`` draws the shaft.
+    ``render_mode="ansi"`` draws the shaft in text, ``"rgb_array"`` in 480 x 320 frames (floors, cabin and
+    load, the queue at each floor, deliveries so far).
 
     ## Corrected mode and ``fidelity="upstream"``
     The default mode fixes the reference's defects; ``fidelity="upstream"`` restores them:
@@ -77,7 +81,7 @@ class ElevatorEnv(gym.Env[dict[str, Any], int]):
     * v0: Gym4ReaL v1.0 dynamics, corrected by default.
     """
 
-    metadata = {"render_modes": ["ansi"], "render_fps": 4}
+    metadata = {"render_modes": ["ansi", "rgb_array"], "render_fps": 8}
     reward_component_names = ("delivery", "waiting")
 
     def __init__(
@@ -107,6 +111,13 @@ class ElevatorEnv(gym.Env[dict[str, Any], int]):
         self._always_wait_penalty = cfg.waiting_penalty_on_delivery
         self._obs_index = {floor: i for i, floor in enumerate(self._served_floors)}
         n = len(self._served_floors)
+        self._renderer: ElevatorRenderer | None = None
+        if render_mode == "rgb_array":
+            from gym4real.elevator.rendering import ElevatorRenderer
+
+            self._renderer = ElevatorRenderer(
+                self._n_floors, self._ppf, self._goal, e.min_floor, self._cap, cfg.duration
+            )
 
         self._position_space = spaces.Discrete(self._top + 1)
         self.action_space = spaces.Discrete(3)  # type: ignore[assignment]
@@ -139,6 +150,8 @@ class ElevatorEnv(gym.Env[dict[str, Any], int]):
         self._futures = self._rows[0]
         self.delivered = 0
         self.turned_away = 0
+        if self._renderer is not None:
+            self._renderer.start()
 
     def _obs(self) -> dict[str, Any]:
         return {
@@ -225,6 +238,8 @@ class ElevatorEnv(gym.Env[dict[str, Any], int]):
         self._t += 1
         self._futures = self._rows[self._t]
 
+        if self._renderer is not None:
+            self._renderer.record(self.delivered, self.turned_away, action == OPEN and self._pos % self._ppf == 0)
         done = self._t >= self._duration
         info = self._info({"delivery": delivery, "waiting": waiting})
         return self._obs(), delivery + waiting, done and self._upstream, done and not self._upstream, info
@@ -240,8 +255,14 @@ class ElevatorEnv(gym.Env[dict[str, Any], int]):
                 self._queue_obs[self._obs_index[floor]] += join
                 self.turned_away += k - join
 
-    def render(self) -> str | None:
-        """Draw the shaft (``render_mode="ansi"``): one line per floor, top floor first."""
+    def render(self) -> str | np.ndarray | None:
+        """Draw the shaft: ``ansi``, one line per floor, top floor first; ``rgb_array``, an ``H x W x 3`` frame.
+
+        The frame (:mod:`gym4real.elevator.rendering`) shows floors, cabin and load, queues and deliveries so far.
+        """
+        if self._renderer is not None:
+            arrivals = dict(zip(self._served_floors, self._futures, strict=True))
+            return self._renderer.frame(self._t, self._pos, self._load, self._queues, arrivals, self._served_floors)
         if self.render_mode != "ansi":
             return None
         e = self.config.elevator

@@ -8,7 +8,7 @@ import math
 import warnings
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 import gymnasium as gym
 import numpy as np
@@ -19,6 +19,9 @@ from gym4real.core.perturbation import check_scales
 from gym4real.microgrid.battery import BatteryParams, BatteryTwin, TwinOptions, load_battery
 from gym4real.microgrid.config import MicrogridConfig
 from gym4real.microgrid.data import TEST_DEMAND, TrainingOnTestDataWarning, World, data_path
+
+if TYPE_CHECKING:
+    from gym4real.microgrid.rendering import MicrogridRenderer
 
 SECONDS_PER_DAY = 86400.0
 SECONDS_PER_YEAR = 86400.0 * 365.25
@@ -142,6 +145,8 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
     ``config`` is a :class:`MicrogridConfig`, a mapping or a YAML path; ``preset`` is ``default``,
     ``train`` or ``test``; overrides are config fields (``fidelity="upstream"``, ``decision_interval=4``,
     ``reward={"normalize": False}``, ``fixes={"capacity_fade": False}``, ...).
+    ``render_mode="rgb_array"`` draws 480 x 320 frames (SoC, temperature and SoH, the step's power flows,
+    prices, cumulative profit and degradation).
 
     Perturbable parameters (:meth:`perturb`, used by :class:`gym4real.wrappers.ExogenousPerturbation`):
     ``battery_capacity`` (the nominal capacity in Ah), ``energy_price`` (the ask and bid series),
@@ -191,7 +196,7 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
     * v0: Gym4ReaL v1.0 dynamics, corrected by default.
     """
 
-    metadata = {"render_modes": [], "render_fps": 1}
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 8}
     reward_component_names = ("trading", "degradation", "clipping")
     perturbable = ("battery_capacity", "energy_price", "demand", "generation")
 
@@ -204,8 +209,8 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
         **overrides: Any,
     ) -> None:
         self.config = cfg = MicrogridConfig.build(config, preset, **overrides)
-        if render_mode is not None:
-            raise ValueError(f"MicrogridEnv has no rendering: render_mode must be None, not {render_mode!r}")
+        if render_mode not in (None, *self.metadata["render_modes"]):
+            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, not {render_mode!r}")
         self.render_mode = render_mode
         self._upstream = cfg.fidelity == "upstream"
         self._aligned = cfg.fix("data_alignment")
@@ -225,6 +230,12 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
         self.battery_params = _battery(cfg.data_dir, files)
         options = TwinOptions.for_fidelity(cfg.fidelity, **{k: getattr(cfg.fixes, k) for k in TWIN_FIXES})
         self.battery = BatteryTwin(self.battery_params, options, eol_soh=b.eol_soh)
+        self._renderer: MicrogridRenderer | None = None
+        if render_mode == "rgb_array":
+            from gym4real.microgrid.rendering import MicrogridRenderer
+
+            bp = self.battery_params
+            self._renderer = MicrogridRenderer(bp.soc_min, bp.soc_max, b.eol_soh, cfg.data.timestep / 3600.0)
         self._scales: dict[str, float] = dict.fromkeys(self.perturbable, 1.0)
         self._pending_scales = self._scales
 
@@ -435,6 +446,8 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
         self._start(row, soc, soh, temperature)
         if rng is not None and cfg.random_battery_init:
             self.battery.voltage = draws["voltage"]
+        if self._renderer is not None:
+            self._renderer.start(self.battery.soc)
         zeros = {"trading": 0.0, "degradation": 0.0, "clipping": 0.0}
         info = {
             "profile": profile,
@@ -560,9 +573,23 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
             },
             "battery": bat.snapshot(),
         }
+        if self._renderer is not None:
+            self._renderer.record(
+                cast("dict[str, float]", info["energy"]), trading, degradation, bat.soc, self._iterations
+            )
         reward = comps["trading"] + comps["degradation"] + comps["clipping"]
         return self._obs(), reward, terminated, truncated and not terminated, info
 
-    def render(self) -> None:
-        """MicrogridEnv has no rendering."""
-        return None
+    def render(self) -> np.ndarray | None:
+        """The ``H x W x 3`` uint8 frame of ``render_mode="rgb_array"`` (else None).
+
+        The frame (:mod:`gym4real.microgrid.rendering`) shows SoC, temperature and SoH, the last step's power
+        flows (PV, demand, battery, grid), the coming hour's prices, the cumulative profit and degradation.
+        """
+        if self._renderer is None:
+            return None
+        bat, now = self.battery, self._row % self._hour_mod
+        seconds = self._row * self._step_s
+        return self._renderer.frame(
+            self._profile, seconds, bat.soc, bat.soh, bat.temperature, self._ask[now], self._bid[now]
+        )
