@@ -142,8 +142,12 @@ def run_episode(
     seed: int | None,
     options: dict[str, Any] | None,
     final_keys: Sequence[str] = (),
+    observer: Callable[[int, float], None] | None = None,
 ) -> dict[str, Any]:
-    """Run one episode; return its per-step rewards, component sums and final ``info`` values."""
+    """Run one episode; return its per-step rewards, component sums and final ``info`` values.
+
+    ``observer(step, return_so_far)``, if given, is called after the reset (step 0) and after each step.
+    """
     reset = getattr(policy, "reset", None)
     if reset is not None:
         reset(seed)
@@ -151,9 +155,15 @@ def run_episode(
     rewards: list[float] = []
     comps: dict[str, float] = {}
     done = False
+    total = 0.0
+    if observer is not None:
+        observer(0, total)
     while not done:
         obs, reward, terminated, truncated, info = env.step(policy(obs))
         rewards.append(float(reward))
+        if observer is not None:
+            total += rewards[-1]
+            observer(len(rewards), total)
         for key, value in info.get("reward_components", {}).items():
             comps[key] = comps.get(key, 0.0) + float(value)
         done = terminated or truncated

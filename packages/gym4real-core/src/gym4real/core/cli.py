@@ -1,4 +1,4 @@
-"""The ``gym4real`` command: list, info, bench, data, train, reproduce.
+"""The ``gym4real`` command: list, info, bench, record, data, train, reproduce.
 
 Errors are printed as one line (``gym4real: error: ...``) with exit status 2, never a traceback
 (set ``GYM4REAL_DEBUG=1`` for one).
@@ -63,6 +63,42 @@ def _cmd_bench(args: argparse.Namespace) -> None:
     )
     print(result.table())
     print(f"results and figures written to {out}/")
+
+
+def _cmd_record(args: argparse.Namespace) -> None:
+    from gym4real.core.record import record
+
+    paths = record(
+        args.env_id,
+        args.policy,
+        episodes=args.episodes,
+        seed=args.seed,
+        out=args.out,
+        fps=args.fps,
+        env_kwargs=_env_kwargs(args.env),
+        max_steps=args.max_steps,
+        mp4=not args.no_mp4,
+        gif_frames=args.gif_frames,
+        progress=not args.quiet,
+    )
+    for path in paths:
+        print(f"wrote {path}")
+
+
+def _add_record(sub: Any) -> None:
+    rec = sub.add_parser("record", help="write videos (MP4 and animated GIF) of a policy's episodes")
+    rec.add_argument("env_id")
+    rec.add_argument("--policy", required=True, help="a baseline name or kind:path model (ppo:runs/x/model.zip)")
+    rec.add_argument("--episodes", type=int, default=1, help="episodes, seeded seed, seed + 1, ...")
+    rec.add_argument("--seed", type=int, default=0)
+    rec.add_argument("--out", default=str(Path("results") / "videos"), help="output folder (default results/videos)")
+    rec.add_argument("--fps", type=float, default=None, help="frames per second (default the env's render_fps)")
+    rec.add_argument("--env", action="append", default=[], metavar="KEY=VALUE", help="make() keyword argument")
+    rec.add_argument("--max-steps", type=int, default=None, help="cut each episode after this many steps")
+    rec.add_argument("--gif-frames", type=int, default=100, help="most frames in the GIF (evenly spaced steps)")
+    rec.add_argument("--no-mp4", action="store_true", help="write the GIF only (no MoviePy needed)")
+    rec.add_argument("--quiet", action="store_true", help="no progress bar")
+    rec.set_defaults(run=_cmd_record)
 
 
 def _cmd_data(args: argparse.Namespace) -> None:
@@ -177,6 +213,7 @@ def _parser() -> argparse.ArgumentParser:
     bench.add_argument("--out", help="output folder (default results/<env>)")
     bench.add_argument("--quiet", action="store_true", help="no progress bar")
     bench.set_defaults(run=_cmd_bench)
+    _add_record(sub)
 
     data = sub.add_parser("data", help="list, fetch or verify the data files")
     data.add_argument("action", choices=["list", "fetch", "verify"])

@@ -1,0 +1,98 @@
+"""``gym4real record``: an MP4 and a GIF per episode of a policy, captioned with its step and return."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from PIL import Image, ImageSequence
+
+import gym4real
+from gym4real.core.canvas import CHAR_HEIGHT, captioned
+from gym4real.core.cli import main
+from gym4real.core.policies import baseline_names, make_policy
+from gym4real.core.record import GifFrames
+
+IDS = gym4real.list_envs()
+
+
+def _rule_based(env_id: str) -> str:
+    return next(b for b in baseline_names(env_id) if b not in ("random", "pretrained"))
+
+
+def _frames(path: Path) -> list[np.ndarray]:
+    with Image.open(path) as gif:
+        return [np.asarray(f.convert("RGB")) for f in ImageSequence.Iterator(gif)]
+
+
+def _expected_last_frame(env_id: str, policy: str, seed: int, max_steps: int) -> tuple[int, np.ndarray]:
+    """The last frame of the episode, captioned from a run of our own: (steps, frame)."""
+    env = gym.make(env_id, render_mode="rgb_array", max_episode_steps=max_steps)
+    try:
+        act = make_policy(env_id, policy, env)
+        reset = getattr(act, "reset", None)
+        if reset is not None:
+            reset(seed)
+        obs, _ = env.reset(seed=seed)
+        total, steps, done = 0.0, 0, False
+        while not done:
+            obs, reward, terminated, truncated, _ = env.step(act(obs))
+            total += float(reward)
+            steps += 1
+            done = terminated or truncated
+        lines = (f"{env_id}  policy {policy}", f"seed {seed}  step {steps}  return {total:.6g}")
+        return steps, captioned(env.render(), lines)
+    finally:
+        env.close()
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_record_writes_a_captioned_mp4_and_gif_per_episode(env_id: str, tmp_path: Path) -> None:
+    from moviepy import VideoFileClip
+
+    policy = _rule_based(env_id)
+    args = ["record", env_id, "--policy", policy, "--episodes", "2", "--seed", "3", "--out", str(tmp_path)]
+    assert main([*args, "--max-steps", "4", "--quiet"]) == 0
+    name = env_id.split("/")[1]
+    for seed in (3, 4):
+        steps, want = _expected_last_frame(env_id, policy, seed, 4)
+        gif = _frames(tmp_path / f"{name}-{policy}-seed{seed}.gif")
+        clip = VideoFileClip(str(tmp_path / f"{name}-{policy}-seed{seed}.mp4"))
+        try:
+            video = list(clip.iter_frames())
+        finally:
+            clip.close()
+        assert len(gif) == len(video) == steps + 1  # the reset, then every step
+        assert gif[-1].shape == video[-1].shape == want.shape
+        band = 6 + 2 * (CHAR_HEIGHT + 2)  # the caption: env, policy, seed, step and return
+        assert np.abs(gif[-1][:band].astype(int) - want[:band]).max() <= 8
+        assert np.abs(video[-1].astype(float) - want).mean() < 12
+
+
+def test_gif_keeps_evenly_spaced_frames_and_the_last(tmp_path: Path) -> None:
+    keeper = GifFrames(limit=10)
+    for i in range(1000):
+        keeper.add(np.full((2, 2, 3), (i // 256, i % 256, 0), dtype=np.uint8))
+    keeper.save(tmp_path / "a.gif", fps=10)
+    index = [int(f[0, 0, 0]) * 256 + int(f[0, 0, 1]) for f in _frames(tmp_path / "a.gif")]
+    assert len(index) <= 10
+    assert index[-1] == 999
+    spacing = np.diff(index[:-1])
+    assert index[0] == 0 and len(set(spacing)) == 1 and 999 - index[-2] <= spacing[0]
+
+
+def test_small_frames_are_enlarged_whole_under_the_caption() -> None:
+    frame = np.random.default_rng(0).integers(0, 256, size=(121, 47, 3), dtype=np.uint8)
+    out = captioned(frame, ["one line", "two"])
+    assert out.shape[0] % 2 == 0 and out.shape[1] % 2 == 0 and out.dtype == np.uint8
+    factor = -(-360 // 47)  # the smallest whole factor to 360 px
+    band = 6 + 2 * (CHAR_HEIGHT + 2)
+    x = (out.shape[1] - 47 * factor) // 2
+    np.testing.assert_array_equal(out[band : band + 121 * factor, x : x + 47 * factor][::factor, ::factor], frame)
+
+
+def test_record_errors_are_one_line(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    assert main(["record", "gym4real/elevator-v0", "--policy", "longest", "--out", str(tmp_path), "--quiet"]) == 2
+    assert "unknown policy `longest`" in capsys.readouterr().err
