@@ -14,6 +14,7 @@ import hashlib
 import json
 import os
 from pathlib import Path
+from shutil import which
 
 import nox
 
@@ -141,16 +142,39 @@ def bench(session: nox.Session) -> None:
 
 @nox.session
 def docs(session: nox.Session) -> None:
-    """The docs site: one generated page per env with its `gym4real bench` figures (short benchmarks)."""
-    session.install(*(_editable(d).removesuffix("[rl,mo,offline]") for d in PACKAGES), "mkdocs-material>=9.5")
+    """The docs site, checked in a real browser.
+
+    One generated page per env with an episode GIF of its best rule-based baseline (recorded here into the
+    ignored docs/envs/) and its `gym4real bench` figures (short benchmarks), plus the figures of `gym4real
+    reproduce` found in results/; `mkdocs build --strict`; then every page opened in headless Chromium
+    (the system's: `apt-get install -y chromium`, or GYM4REAL_CHROMIUM=<binary>), a screenshot of each
+    saved in results/docs/screenshots/, failing on a console error, a broken image or a page that does
+    not render.
+    """
+    chromium = next(
+        (p for c in (os.environ.get("GYM4REAL_CHROMIUM"), "chromium", "chromium-browser") if c and (p := which(c))),
+        None,
+    )
+    if chromium is None:
+        session.error(
+            "the docs check opens every page in Chromium, which is not installed: `apt-get install -y chromium` "
+            "(Debian/Ubuntu), or set GYM4REAL_CHROMIUM to a Chrome or Chromium binary"
+        )
+    session.install(
+        *(_editable(d).removesuffix("[rl,mo,offline]") for d in PACKAGES), "mkdocs-material>=9.5", "playwright>=1.40"
+    )
     figures = ROOT / "results" / "docs"
     env = ENV | _data_env(session)
     ids = session.run("python", "-c", "import gym4real; print(*gym4real.list_envs())", silent=True, env=env)
     for env_id in str(ids).split():
         out = figures / env_id.replace("/", "_")
         session.run("gym4real", "bench", env_id, "--episodes", "3", "--out", str(out), "--quiet", env=env)
-    session.run("python", "docs/gen_pages.py", "--figures", str(figures), env=env)
-    session.run("mkdocs", "build", "--strict", env=env)
+    session.run(
+        "python", "docs/gen_pages.py", "--figures", str(figures), "--gifs", "--reproduction", "results", env=env
+    )
+    session.run("mkdocs", "build", "--strict", env={**env, "NO_MKDOCS_2_WARNING": "1"})
+    shots = figures / "screenshots"
+    session.run("python", "docs/check_site.py", "site", "--screenshots", str(shots), "--chromium", chromium, env=env)
 
 
 @nox.session
