@@ -83,14 +83,19 @@ def test_gif_keeps_evenly_spaced_frames_and_the_last(tmp_path: Path) -> None:
     assert index[0] == 0 and len(set(spacing)) == 1 and 999 - index[-2] <= spacing[0]
 
 
-def test_small_frames_are_enlarged_whole_under_the_caption() -> None:
-    frame = np.random.default_rng(0).integers(0, 256, size=(121, 47, 3), dtype=np.uint8)
+@pytest.mark.parametrize(("shape", "factor"), [((21, 47), 8), ((121, 47), 3), ((300, 300), 1), ((320, 480), 1)])
+def test_small_frames_are_enlarged_whole_under_the_caption(shape: tuple[int, int], factor: int) -> None:
+    # 8 = the smallest whole factor to 360 px wide; 3 = the largest that stays within 480 px high
+    h, w = shape
+    frame = np.random.default_rng(0).integers(0, 256, size=(h, w, 3), dtype=np.uint8)
     out = captioned(frame, ["one line", "two"])
     assert out.shape[0] % 2 == 0 and out.shape[1] % 2 == 0 and out.dtype == np.uint8
-    factor = -(-360 // 47)  # the smallest whole factor to 360 px
     band = 6 + 2 * (CHAR_HEIGHT + 2)
-    x = (out.shape[1] - 47 * factor) // 2
-    np.testing.assert_array_equal(out[band : band + 121 * factor, x : x + 47 * factor][::factor, ::factor], frame)
+    x = (out.shape[1] - w * factor) // 2
+    assert out.shape[0] - (band + h * factor) in (0, 1)
+    np.testing.assert_array_equal(out[band : band + h * factor, x : x + w * factor][::factor, ::factor], frame)
+    if factor > 1:
+        np.testing.assert_array_equal(out[band + factor - 1, x + factor - 1], frame[0, 0])
 
 
 def test_record_errors_are_one_line(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:

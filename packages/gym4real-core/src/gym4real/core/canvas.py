@@ -177,16 +177,16 @@ class Canvas:
         self.box(xy, outline=INK)
 
 
-def captioned(frame: np.ndarray, lines: Sequence[str], min_width: int = 360) -> np.ndarray:
+def captioned(frame: np.ndarray, lines: Sequence[str], min_width: int = 360, max_height: int = 480) -> np.ndarray:
     """A frame under a band of text lines (a video's title): ``H' x W' x 3`` uint8 with even sides.
 
-    A frame narrower than ``min_width`` is enlarged by a whole factor (pixel-doubled); one narrower than
-    the longest line is centred on a white strip; odd sides get a white pixel row or column (video codecs
-    need even sides).
+    A frame narrower than ``min_width`` is enlarged by a whole factor (pixel-doubled), as far as it stays
+    within ``max_height``; one narrower than the longest line is centred on a white strip; odd sides get a
+    white pixel row or column (video codecs need even sides).
     """
     if frame.ndim != 3 or frame.shape[2] != 3 or frame.dtype != np.uint8:
         raise ValueError(f"a frame must be an H x W x 3 uint8 array, got {frame.dtype} of shape {frame.shape}")
-    factor = max(1, -(-min_width // frame.shape[1]))
+    factor = max(1, min(-(-min_width // frame.shape[1]), max_height // frame.shape[0]))
     if factor > 1:
         frame = frame.repeat(factor, axis=0).repeat(factor, axis=1)
     h, w = frame.shape[:2]
