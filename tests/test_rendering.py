@@ -15,6 +15,9 @@ import gym4real
 import gym4real.core.registry
 from gym4real.core.testing import assert_same_trace
 
+#: The vector reward of the multi-objective variants is on purpose; Gymnasium's checker remarks on it.
+pytestmark = pytest.mark.filterwarnings("ignore:.*reward returned by `step\\(\\)` must be a float:UserWarning")
+
 BASE_IDS = gym4real.list_envs()
 #: Every id and the vector-reward variant of each multi-objective one (as ``registry.register_envs`` names it).
 IDS = sorted(
