@@ -27,8 +27,10 @@ def _frames(path: Path) -> list[np.ndarray]:
         return [np.asarray(f.convert("RGB")) for f in ImageSequence.Iterator(gif)]
 
 
-def _expected_last_frame(env_id: str, policy: str, seed: int, max_steps: int) -> tuple[int, np.ndarray]:
-    """The last frame of the episode, captioned from a run of our own: (steps, frame)."""
+def _expected_last_frame(
+    env_id: str, policy: str, seed: int, max_steps: int, label: str | None = None
+) -> tuple[int, np.ndarray]:
+    """The last frame of the episode, captioned (with ``label``, default ``policy``) from a run of our own."""
     env = gym.make(env_id, render_mode="rgb_array", max_episode_steps=max_steps)
     try:
         act = make_policy(env_id, policy, env)
@@ -42,7 +44,7 @@ def _expected_last_frame(env_id: str, policy: str, seed: int, max_steps: int) ->
             total += float(reward)
             steps += 1
             done = terminated or truncated
-        lines = (f"{env_id}  policy {policy}", f"seed {seed}  step {steps}  return {total:.6g}")
+        lines = (f"{env_id}  policy {label or policy}", f"seed {seed}  step {steps}  return {total:.6g}")
         return steps, captioned(env.render(), lines)
     finally:
         env.close()
@@ -69,6 +71,24 @@ def test_record_writes_a_captioned_mp4_and_gif_per_episode(env_id: str, tmp_path
         band = 6 + 2 * (CHAR_HEIGHT + 2)  # the caption: env, policy, seed, step and return
         assert np.abs(gif[-1][:band].astype(int) - want[:band]).max() <= 8
         assert np.abs(video[-1].astype(float) - want).mean() < 12
+
+
+def test_record_plays_a_trained_model_given_as_kind_path(tmp_path: Path) -> None:
+    from gym4real.core.rl.tabular import StateIndexer, save_qtable
+
+    env_id = "gym4real/elevator-v0"
+    indexer = StateIndexer(gym.make(env_id).observation_space)
+    q = np.zeros((indexer.n_states, 3))
+    q[:, 2] = 1.0  # a table whose greedy action is always "up"
+    save_qtable(tmp_path / "q.npz", q, env_id, "qlearning", indexer.radices)
+    policy = f"qlearning:{tmp_path / 'q.npz'}"
+    args = ["record", env_id, "--policy", policy, "--out", str(tmp_path), "--max-steps", "12", "--no-mp4", "--quiet"]
+    assert main(args) == 0
+    assert not list(tmp_path.glob("*.mp4"))
+    gif = _frames(tmp_path / "elevator-v0-qlearning-q-seed0.gif")
+    steps, want = _expected_last_frame(env_id, policy, 0, 12, label="qlearning-q")
+    assert len(gif) == steps + 1 == 13
+    np.testing.assert_array_equal(gif[-1], want)  # the cabin went up: the model's episode, captioned
 
 
 def test_gif_keeps_evenly_spaced_frames_and_the_last(tmp_path: Path) -> None:
