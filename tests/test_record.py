@@ -121,3 +121,8 @@ def test_small_frames_are_enlarged_whole_under_the_caption(shape: tuple[int, int
 def test_record_errors_are_one_line(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
     assert main(["record", "gym4real/elevator-v0", "--policy", "longest", "--out", str(tmp_path), "--quiet"]) == 2
     assert "unknown policy `longest`" in capsys.readouterr().err
+    args = ["record", "gym4real/elevator-v0", "--policy", "longest_first", "--out", str(tmp_path), "--quiet"]
+    assert main([*args, "--fps", "0"]) == 2
+    assert "`fps` must be a positive number" in capsys.readouterr().err
+    assert main([*args, "--gif-frames", "1"]) == 2
+    assert "`gif_frames` must be at least 2" in capsys.readouterr().err

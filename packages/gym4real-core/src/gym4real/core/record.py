@@ -81,7 +81,7 @@ def record(
     policy: str | Callable[[Any], Any],
     episodes: int = 1,
     seed: int = 0,
-    out: str | Path = "videos",
+    out: str | Path = Path("results") / "videos",
     fps: float | None = None,
     env_kwargs: Mapping[str, Any] | None = None,
     max_steps: int | None = None,
@@ -114,6 +114,8 @@ def record(
         raise ConfigError(f"`episodes` must be a positive number, not {episodes}")
     if not (mp4 or gif):
         raise ConfigError("nothing to write: keep the MP4, the GIF or both")
+    if fps is not None and not fps > 0:
+        raise ConfigError(f"`fps` must be a positive number of frames per second, not {fps}")
     kwargs: dict[str, Any] = {**(env_kwargs or {}), "render_mode": "rgb_array"}
     if max_steps is not None:
         kwargs["max_episode_steps"] = max_steps
@@ -122,8 +124,6 @@ def record(
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
     rate = float(fps or env.metadata.get("render_fps") or 4)
-    if rate <= 0:
-        raise ConfigError(f"`fps` must be positive, not {fps}")
     bar = None
     if progress:
         from tqdm.auto import tqdm
