@@ -58,6 +58,14 @@ def episode_gif(env_id: str, policy: str, steps: int) -> Path:
     return gif
 
 
+def _space(space: gym.Space) -> str:
+    """A space as one table cell: its repr on one line, or its type, shape and dtype when that is long."""
+    text = " ".join(str(space).split())
+    if len(text) > 120 and isinstance(space, gym.spaces.Box):
+        return f"`Box(shape={space.shape}, {space.dtype})` (bounds per feature: see Observation Space)"
+    return f"`{text}`".replace("|", "\\|")
+
+
 def _summary(env: gym.Env, env_id: str, flags: str) -> list[str]:
     """The table beside the GIF: spaces, reward terms, flags, episode length and the call."""
     raw = env.unwrapped
@@ -65,8 +73,8 @@ def _summary(env: gym.Env, env_id: str, flags: str) -> list[str]:
     limit = env.spec.max_episode_steps if env.spec else None
     rows = [
         ("Make", f'`gymnasium.make("{env_id}")`'),
-        ("Action space", f"`{env.action_space}`"),
-        ("Observation space", f"`{env.observation_space}`"),
+        ("Action space", _space(env.action_space)),
+        ("Observation space", _space(env.observation_space)),
         ("Reward terms", ", ".join(f"`{t}`" for t in terms) or "the reward"),
         ("Render modes", ", ".join(f"`{m}`" for m in raw.metadata.get("render_modes", ())) or "none"),
         ("Table-1 flags", flags),
