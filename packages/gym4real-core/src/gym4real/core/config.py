@@ -8,6 +8,7 @@ key, then validated. An unknown key or a wrong type raises :class:`ConfigError` 
 
 from __future__ import annotations
 
+import reprlib
 from collections.abc import Mapping
 from importlib import resources
 from pathlib import Path
@@ -16,22 +17,78 @@ from typing import Any, ClassVar, Literal, Self
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from gym4real.core.errors import ConfigError
+from gym4real.core.errors import ConfigError, Gym4RealError
 
 Fidelity = Literal["corrected", "upstream"]
 
 
-def read_yaml(source: Path | resources.abc.Traversable, what: str) -> dict[str, Any]:
-    """Read a YAML mapping with ``yaml.safe_load``; any problem is a :class:`ConfigError` naming the file."""
+#: Most values a YAML file may hold once its aliases are expanded (a config has tens; "billion laughs" has 10**9).
+MAX_YAML_VALUES = 100_000
+#: Most characters of an input value quoted in an error message.
+MAX_QUOTED = 80
+#: Most validation errors listed in one message.
+MAX_LISTED = 10
+
+
+def read_yaml(
+    source: Path | resources.abc.Traversable, what: str, error: type[Gym4RealError] = ConfigError
+) -> dict[str, Any]:
+    """Read a YAML mapping with PyYAML's safe loader; any problem is an ``error`` naming the file.
+
+    Tags are refused (safe loader), and so is a document whose aliases expand to more than
+    :data:`MAX_YAML_VALUES` values, before anything is built from it.
+    """
     try:
-        data = yaml.safe_load(source.read_text(encoding="utf-8"))
+        loader = yaml.SafeLoader(source.read_text(encoding="utf-8"))
+        try:
+            node = loader.get_single_node()
+            if node is not None:
+                _check_expansion(node, f"{what} `{source}`", error)
+            data = None if node is None else loader.construct_document(node)
+        finally:
+            loader.dispose()
+    except UnicodeDecodeError as exc:
+        msg = f"{what} `{source}` is not UTF-8 text ({exc.reason} at byte {exc.start}); save it as UTF-8"
+        raise error(msg) from None
+    except RecursionError:
+        raise error(f"{what} `{source}` is nested too deeply to be a configuration; flatten it") from None
     except (OSError, yaml.YAMLError) as exc:
-        raise ConfigError(f"cannot read {what} `{source}`: {exc}") from exc
+        raise error(f"cannot read {what} `{source}`: {exc}") from exc
     if data is None:
         return {}
     if not isinstance(data, dict):
-        raise ConfigError(f"{what} `{source}` must hold a mapping of fields, not {type(data).__name__}")
+        raise error(f"{what} `{source}` must hold a mapping of fields, not {type(data).__name__}")
     return data
+
+
+def _check_expansion(root: yaml.Node, what: str, error: type[Gym4RealError]) -> None:
+    """Refuse a YAML node graph whose aliases expand to more than :data:`MAX_YAML_VALUES` values (or a cycle)."""
+    sizes: dict[int, int] = {}
+    pending: set[int] = set()
+
+    def size(node: yaml.Node) -> int:
+        key = id(node)
+        if key in sizes:
+            return sizes[key]
+        if key in pending:
+            raise error(f"{what} holds a recursive alias (an anchor used inside itself); write the values out")
+        pending.add(key)
+        total = 1
+        if isinstance(node, yaml.SequenceNode):
+            total += sum(size(child) for child in node.value)
+        elif isinstance(node, yaml.MappingNode):
+            total += sum(size(k) + size(v) for k, v in node.value)
+        if total > MAX_YAML_VALUES:
+            msg = (
+                f"{what} expands to more than {MAX_YAML_VALUES:,} values through YAML aliases (`&anchor` / "
+                "`*alias`); write the values out, or use fewer aliases"
+            )
+            raise error(msg)
+        pending.discard(key)
+        sizes[key] = total
+        return total
+
+    size(root)
 
 
 def merge(base: Mapping[str, Any], update: Mapping[str, Any]) -> dict[str, Any]:
@@ -45,26 +102,62 @@ def merge(base: Mapping[str, Any], update: Mapping[str, Any]) -> dict[str, Any]:
     return out
 
 
+def _quoter() -> reprlib.Repr:
+    r = reprlib.Repr()
+    r.maxlevel, r.maxstring, r.maxother, r.maxlong = 3, MAX_QUOTED, MAX_QUOTED, MAX_QUOTED
+    return r
+
+
+_QUOTER = _quoter()
+
+
+def quote(value: Any, limit: int = MAX_QUOTED) -> str:
+    """``repr`` of a value for an error message, at most ``limit`` characters (never the whole of a huge input)."""
+    text = _QUOTER.repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
 def describe_validation_error(err: ValidationError, model: str) -> str:
-    """One line per pydantic error, each naming the field: unknown fields and wrong values alike."""
+    """One line per pydantic error, each naming the field: unknown fields and wrong values alike.
+
+    What the error quotes of the input is capped (:func:`quote`), and so is the number of lines listed,
+    so that a huge input cannot make a huge message.
+    """
+    errors = err.errors(include_url=False)
     lines = []
-    for e in err.errors():
+    for e in errors[:MAX_LISTED]:
         where = ".".join(str(p) for p in e["loc"]) or "(root)"
+        where = where if len(where) <= MAX_QUOTED else where[: MAX_QUOTED - 3] + "..."
         if e["type"] == "extra_forbidden":
             lines.append(f"unknown field `{where}`")
+        elif e["type"] == "value_error":  # a validator's own message, which names its fields and values
+            message = e["msg"].removeprefix("Value error, ")
+            lines.append(message if not e["loc"] else f"`{where}`: {message}")
         else:
-            lines.append(f"field `{where}`: {e['msg']} (got {e.get('input')!r})")
+            lines.append(f"field `{where}`: {e['msg']} (got {quote(e.get('input'))})")
+    if len(errors) > MAX_LISTED:
+        lines.append(f"and {len(errors) - MAX_LISTED} more")
     return f"invalid {model}: " + "; ".join(lines)
+
+
+class ConfigSection(BaseModel):
+    """Base of every nested section of an environment's configuration.
+
+    Frozen, unknown keys rejected, and every float finite: NaN and infinities are refused unless a field
+    says otherwise (``Field(allow_inf_nan=True)``).
+    """
+
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 class EnvConfig(BaseModel):
     """Base of every environment's configuration (frozen, unknown keys rejected).
 
     Subclasses set ``presets_package``, the package whose ``presets/<name>.yaml`` files are the
-    named presets, and ``default_preset``.
+    named presets, and ``default_preset``. Every float is finite, as in :class:`ConfigSection`.
     """
 
-    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True, allow_inf_nan=False)
 
     presets_package: ClassVar[str] = ""
     default_preset: ClassVar[str] = "default"
@@ -85,11 +178,16 @@ class EnvConfig(BaseModel):
 
     @classmethod
     def preset(cls, name: str) -> dict[str, Any]:
-        """Return the raw fields of a packaged preset."""
-        source = resources.files(cls.presets_package) / "presets" / f"{name}.yaml"
-        if not source.is_file():
-            raise ConfigError(f"unknown preset `{name}` for {cls.__name__}; expected one of {cls.presets()}")
-        return read_yaml(source, "preset")
+        """Return the raw fields of a packaged preset (a name, never a path: a file is passed as ``config``)."""
+        if not isinstance(name, str) or name not in cls.presets():
+            shown = f"`{name}`" if isinstance(name, str) and len(name) <= MAX_QUOTED else quote(name)
+            msg = f"unknown preset {shown} for {cls.__name__}; expected one of {cls.presets()}"
+            text = str(name) if isinstance(name, (str, Path)) else ""
+            if "/" in text or "\\" in text or text.endswith((".yaml", ".yml")):
+                file = text if text.endswith((".yaml", ".yml")) else f"{text}.yaml"
+                msg += f"; a preset is a name: pass a YAML file as `config={quote(file)}`"
+            raise ConfigError(msg)
+        return read_yaml(resources.files(cls.presets_package) / "presets" / f"{name}.yaml", "preset")
 
     @classmethod
     def build(

@@ -9,18 +9,14 @@ from __future__ import annotations
 
 from typing import Literal, Self
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import Field, model_validator
 
-from gym4real.core.config import EnvConfig
+from gym4real.core.config import ConfigSection, EnvConfig
 
 Observation = Literal["day_of_year", "level", "exponential_average_demand"]
 
 
-class _Section(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-
-class LakeSection(_Section):
+class LakeSection(ConfigSection):
     """The lake model (paper appendix, Table "DamEnv's simulator parameters")."""
 
     surface: float = Field(
@@ -56,7 +52,7 @@ class LakeSection(_Section):
         return self
 
 
-class ActionSection(_Section):
+class ActionSection(ConfigSection):
     """Bounds of the daily release decision (m3/s)."""
 
     low: float = Field(0.0, ge=0, description="Lowest release decision.")
@@ -69,7 +65,7 @@ class ActionSection(_Section):
         return self
 
 
-class RewardSection(_Section):
+class RewardSection(ConfigSection):
     """Weights of the five reward terms."""
 
     daily_deficit_coeff: float = Field(1.0, ge=0, description="Weight of the seasonal supply deficit.")
@@ -79,7 +75,7 @@ class RewardSection(_Section):
     clip_action_coeff: float = Field(0.0005, ge=0, description="Weight of (decision - realised release)^2.")
 
 
-class FixesSection(_Section):
+class FixesSection(ConfigSection):
     """Individual switches of the corrected behaviour; null follows `fidelity`."""
 
     current_level_observation: bool | None = Field(
@@ -110,7 +106,7 @@ class DamConfig(EnvConfig):
     lake: LakeSection = LakeSection()
     period: int = Field(365, ge=1, le=365, description="Days per year in day-of-year arithmetic (T).")
     integration: int = Field(24, ge=1, le=86_400, description="Lake sub-steps per daily step (a count).")
-    sim_horizon: int = Field(365, ge=1, description="Daily steps per episode (H).")
+    sim_horizon: int = Field(365, ge=1, le=36_500, description="Daily steps per episode (H), at most 100 years.")
     doy: int = Field(1, ge=1, le=365, description="Day of year (1-based) of the first step.")
     flood_level: float = Field(1.24, description="A day ending above this level counts as overflow (m).")
     starving_level: float = Field(-0.45, description="A day ending below this level counts as starving (m).")
@@ -154,6 +150,12 @@ class DamConfig(EnvConfig):
             raise ValueError("`doy` must not exceed `period`")
         if self.starving_level >= self.flood_level:
             raise ValueError("`starving_level` must be below `flood_level`")
+        low, high = self.level_bounds
+        if low >= high:
+            raise ValueError(f"`level_bounds` {self.level_bounds} must be (lowest, highest) level, lowest first")
+        if not low <= self.lake.init_level <= high:
+            msg = f"`lake.init_level` ({self.lake.init_level} m) must lie within `level_bounds` [{low}, {high}] m"
+            raise ValueError(msg)
         if self.years is not None and len(set(self.years)) != len(self.years):
             raise ValueError("`years` lists a year twice")
         fixes = self.resolved_fixes()

@@ -4,32 +4,36 @@ from __future__ import annotations
 
 from typing import Self
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import Field, model_validator
 
-from gym4real.core.config import EnvConfig
-
-
-class _Section(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+from gym4real.core.config import ConfigSection, EnvConfig
 
 
-class ElevatorSection(_Section):
+class ElevatorSection(ConfigSection):
     """The building and the cabin."""
 
     min_floor: int = Field(0, ge=0, description="Lowest floor.")
-    max_floor: int = Field(4, ge=1, description="Highest floor.")
-    max_capacity: int = Field(4, ge=1, description="Passengers the cabin holds.")
-    movement_speed: float = Field(3.0, gt=0, description="Metres travelled per step (one second).")
-    floor_height: float = Field(6.0, gt=0, description="Metres between floors; a multiple of the speed.")
+    max_floor: int = Field(4, ge=1, le=200, description="Highest floor (at most 200: the tallest towers have ~160).")
+    max_capacity: int = Field(4, ge=1, le=100, description="Passengers the cabin holds (at most 100).")
+    movement_speed: float = Field(
+        3.0, ge=0.1, le=25.0, description="Metres travelled per step (one second); 0.1 to 25 m/s (the fastest lifts)."
+    )
+    floor_height: float = Field(
+        6.0, gt=0, le=20.0, description="Metres between floors (at most 20); a multiple of the speed."
+    )
 
 
-class FloorsSection(_Section):
+class FloorsSection(ConfigSection):
     """The arrival processes."""
 
-    max_arrivals: int = Field(2, ge=1, description="Arrivals kept per floor per second.")
-    max_queue_length: int = Field(3, ge=1, description="Waiting passengers per floor; more arrivals balk.")
-    lambda_min: float = Field(0.01, ge=0, description="Lower bound of the per-floor Poisson rate (1/s).")
-    lambda_max: float = Field(0.1, ge=0, description="Upper bound of the per-floor Poisson rate (1/s).")
+    max_arrivals: int = Field(2, ge=1, le=100, description="Arrivals kept per floor per second (at most 100).")
+    max_queue_length: int = Field(
+        3, ge=1, le=1000, description="Waiting passengers per floor (at most 1000); more arrivals balk."
+    )
+    lambda_min: float = Field(0.01, ge=0, le=100, description="Lower bound of the per-floor Poisson rate (1/s).")
+    lambda_max: float = Field(
+        0.1, ge=0, le=100, description="Upper bound of the per-floor Poisson rate (1/s, at most 100 people a second)."
+    )
     seed: int = Field(
         42, description="Arrival seed of the upstream mode (the reference evaluates with 1234); unused when corrected."
     )
@@ -42,7 +46,7 @@ class ElevatorConfig(EnvConfig):
 
     elevator: ElevatorSection = ElevatorSection()
     floors: FloorsSection = FloorsSection()
-    duration: int = Field(3600, ge=1, description="Steps (seconds) per episode.")
+    duration: int = Field(3600, ge=1, le=86_400, description="Steps (seconds) per episode, at most one day.")
     goal_floor: int = Field(0, ge=0, description="Destination of every passenger.")
     init_elevator_pos: float | None = Field(
         None, ge=0, description="Initial height (m), a multiple of the speed; null draws a position uniformly."

@@ -4,16 +4,12 @@ from __future__ import annotations
 
 from typing import Literal, Self
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import Field, model_validator
 
-from gym4real.core.config import EnvConfig
-
-
-class _Section(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+from gym4real.core.config import ConfigSection, EnvConfig
 
 
-class DummySection(_Section):
+class DummySection(ConfigSection):
     """Constant series standing in for a missing generation, market or temperature file (reference values)."""
 
     generation: float = Field(10.0, ge=0, description="Constant PV generation (W).")
@@ -22,7 +18,7 @@ class DummySection(_Section):
     temp_amb: float = Field(298.15, ge=150, description="Constant ambient temperature (K).")
 
 
-class DataSection(_Section):
+class DataSection(ConfigSection):
     """The exogenous series: a registered dataset (``demand/test``), the path of a ``.csv`` file, or null."""
 
     demand: str = Field("demand/test", description="Demand profiles (W), one column per household.")
@@ -34,11 +30,15 @@ class DataSection(_Section):
     )
     temp_amb: str | None = Field("temp_amb/test", description="Daily ambient temperature (K); null: `dummy.temp_amb`.")
     dummy: DummySection = DummySection()
-    timestep: float = Field(3600.0, gt=0, description="Seconds per row of the demand, PV and market series.")
-    temp_timestep: float = Field(86400.0, gt=0, description="Seconds per row of the ambient temperature series.")
+    timestep: float = Field(
+        3600.0, gt=0, le=86_400, description="Seconds per row of the demand, PV and market series (at most a day)."
+    )
+    temp_timestep: float = Field(
+        86400.0, gt=0, le=86_400, description="Seconds per row of the ambient temperature series (at most a day)."
+    )
 
 
-class BatterySection(_Section):
+class BatterySection(ConfigSection):
     """The battery: registered configuration files unless paths are given."""
 
     pack: str | None = Field(None, description="Pack YAML (`battery_pack.yaml`); null: the registered one.")
@@ -52,7 +52,7 @@ class BatterySection(_Section):
     replacement_cost: float = Field(3000.0, ge=0, description="Battery replacement cost (EUR) of the degradation term.")
 
 
-class RewardSection(_Section):
+class RewardSection(ConfigSection):
     """Weights of the reward terms and their normalisation."""
 
     trading: float = Field(1.0, description="Weight of the trading income.")
@@ -65,7 +65,7 @@ class RewardSection(_Section):
     )
 
 
-class FixesSection(_Section):
+class FixesSection(ConfigSection):
     """Corrections of the reference's defects; null follows `fidelity` (on when corrected, off when upstream)."""
 
     celsius_lookup: bool | None = Field(None, description="Lookup tables in °C with bilinear interpolation (1).")

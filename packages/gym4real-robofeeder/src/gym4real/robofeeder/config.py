@@ -7,29 +7,31 @@ and the paper's appendix (reward shaping, T, number of objects). Each fix of a r
 
 from __future__ import annotations
 
-from typing import Any, ClassVar, Literal, Self
+from typing import ClassVar, Literal, Self
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import Field, model_validator
 
-from gym4real.core.config import EnvConfig
+from gym4real.core.config import ConfigSection, EnvConfig
 from gym4real.core.errors import ConfigError
 
 
-class _Section(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-
-class ControllerSection(_Section):
+class ControllerSection(ConfigSection):
     """The timed pick controller (reference ``ACTION_*`` and gripper constants)."""
 
-    long_pause: float = Field(0.025, gt=0, description="Simulated seconds between ticks at key waypoints (s).")
-    short_pause: float = Field(0.016, gt=0, description="Simulated seconds between ordinary ticks (s).")
-    delta_gripper: float = Field(0.00355, gt=0, description="Finger command change per closing tick (m).")
+    long_pause: float = Field(
+        0.025, gt=0, le=1.0, description="Simulated seconds between ticks at key waypoints (s, at most 1)."
+    )
+    short_pause: float = Field(
+        0.016, gt=0, le=1.0, description="Simulated seconds between ordinary ticks (s, at most 1)."
+    )
+    delta_gripper: float = Field(
+        0.00355, ge=0.0001, description="Finger command change per closing tick (m; at least 0.1 mm, so closing ends)."
+    )
     open_gripper: float = Field(0.008, gt=0, le=0.008, description="Open finger command (m).")
     close_gripper: float = Field(0.00125, ge=0, description="Closing stops once the command is at most this (m).")
 
 
-class SpawnSection(_Section):
+class SpawnSection(ConfigSection):
     """Where and how objects are placed at reset (normalised image coordinates in [-1, 1])."""
 
     x_range: tuple[float, float] = Field((-0.8, 0.8), description="Range of the normalised image x (u) of a spawn.")
@@ -42,7 +44,7 @@ class SpawnSection(_Section):
     upright: bool = Field(True, description="Yaw-only orientations; False draws an arbitrary quaternion.")
 
 
-class WorkspaceSection(_Section):
+class WorkspaceSection(ConfigSection):
     """The reachable image window (reference ``X_LIMIT``, ``Y_DOWN``, ``Y_UP``, pixels of a 300-px image)."""
 
     x_limit: float = Field(0.0, ge=0, description="Margin (px) excluded at the left and right image borders.")
@@ -50,7 +52,7 @@ class WorkspaceSection(_Section):
     y_up: float = Field(240.0, gt=0, description="Largest reachable image row v (px); farther rows are unreachable.")
 
 
-class RewardSection(_Section):
+class RewardSection(ConfigSection):
     """Shaping of a failed pick (paper appendix, Table 'RoboFeeder parameters')."""
 
     distance_weight: float = Field(0.85, ge=0, le=1, description="lambda: weight of the distance term.")
@@ -58,7 +60,7 @@ class RewardSection(_Section):
     delta_theta: float = Field(0.35, gt=0, description="Angle error (rad) at which the rotation term is one half.")
 
 
-class FixesSection(_Section):
+class FixesSection(ConfigSection):
     """Switches of the reference defects fixed by the corrected mode (null: follow `fidelity`)."""
 
     release_at_place: bool | None = Field(
@@ -119,8 +121,12 @@ class RoboFeederConfig(EnvConfig):
     controller: ControllerSection = ControllerSection()
     workspace: WorkspaceSection = WorkspaceSection()
     reward: RewardSection = RewardSection()
-    settle_steps: int = Field(900, ge=0, description="Physics steps after spawning (upstream and at most).")
-    post_pick_steps: int = Field(400, ge=0, description="Physics steps after a pick (upstream and at most).")
+    settle_steps: int = Field(
+        900, ge=0, le=10_000, description="Physics steps after spawning (upstream and at most; at most 10,000)."
+    )
+    post_pick_steps: int = Field(
+        400, ge=0, le=10_000, description="Physics steps after a pick (upstream and at most; at most 10,000)."
+    )
     success_point: tuple[float, float, float] = Field(
         (-0.19096066, 0.47406576, 0.52), description="World point (m) an object must end near for a successful pick."
     )
@@ -150,13 +156,6 @@ class RoboFeederConfig(EnvConfig):
         if cls.preset_prefix:
             return [n for n in names if n.startswith(cls.preset_prefix)]
         return [n for n in names if not n.startswith(PlanningConfig.preset_prefix)]
-
-    @classmethod
-    def preset(cls, name: str) -> dict[str, Any]:
-        """The raw fields of a packaged preset of this family."""
-        if name not in cls.presets():
-            raise ConfigError(f"unknown preset `{name}` for {cls.__name__}; expected one of {cls.presets()}")
-        return super().preset(name)
 
     @model_validator(mode="after")
     def _consistent(self) -> Self:

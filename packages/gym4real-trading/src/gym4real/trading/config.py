@@ -9,9 +9,9 @@ from __future__ import annotations
 import datetime as dt
 from typing import Literal, Self
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import Field, model_validator
 
-from gym4real.core.config import EnvConfig
+from gym4real.core.config import ConfigSection, EnvConfig
 
 #: UTC offset of market time in hours: EST without daylight saving.
 MARKET_UTC_OFFSET = -5.0
@@ -19,11 +19,7 @@ MARKET_UTC_OFFSET = -5.0
 SplitName = Literal["train", "validation", "test"]
 
 
-class _Section(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-
-class CsvColumns(_Section):
+class CsvColumns(ConfigSection):
     """Column mapping of a generic CSV of timestamped quotes (``source.kind: csv``).
 
     A column is named by its header text or by its 0-based position. Give either ``bid`` and ``ask``
@@ -50,7 +46,7 @@ class CsvColumns(_Section):
         return self
 
 
-class SourceSection(_Section):
+class SourceSection(ConfigSection):
     """Where the quotes come from."""
 
     kind: Literal["histdata_tick", "histdata_m1", "csv"] = Field(
@@ -66,7 +62,10 @@ class SourceSection(_Section):
     )
     pair: str = Field("EURUSD", pattern=r"^[A-Z]{6}$", description="Currency pair of the HistData file names.")
     utc_offset_hours: float = Field(
-        MARKET_UTC_OFFSET, description="UTC offset of the source's timestamps (HistData: -5, fixed; UTC files: 0)."
+        MARKET_UTC_OFFSET,
+        ge=-12,
+        le=14,
+        description="UTC offset of the source's timestamps, -12 to 14 (HistData: -5, fixed; UTC files: 0).",
     )
     columns: CsvColumns = Field(
         default_factory=lambda: CsvColumns(price=4), description="Column mapping of a `csv` source."
@@ -81,7 +80,7 @@ class SourceSection(_Section):
         return self
 
 
-class SplitSection(_Section):
+class SplitSection(ConfigSection):
     """A period of trading days: whole calendar years, or a date range (inclusive)."""
 
     years: list[int] | None = Field(None, description="Calendar years of the split.")
@@ -114,7 +113,7 @@ class SplitSection(_Section):
         return lo <= day <= hi
 
 
-class SplitsSection(_Section):
+class SplitsSection(ConfigSection):
     """The train / validation / test periods (the paper: 2019-2020 / 2021 / 2022)."""
 
     train: SplitSection = SplitSection(years=[2019, 2020])
@@ -122,7 +121,7 @@ class SplitsSection(_Section):
     test: SplitSection = SplitSection(years=[2022])
 
 
-class FixesSection(_Section):
+class FixesSection(ConfigSection):
     """Individual switches of the reference defects that change numbers; null follows `fidelity`.
 
     ``true`` applies the fix, ``false`` keeps the reference behaviour.
@@ -161,7 +160,12 @@ class TradingConfig(EnvConfig):
     anomalous_days: list[dt.date] = Field([], description="Dates to leave out.")
     bar_minutes: int = Field(1, ge=1, description="Bar length (minutes): the price grid of the episodes.")
     persistence: int = Field(5, ge=1, description="Minutes an action is held (a multiple of `bar_minutes`).")
-    number_of_deltas: int = Field(60, ge=1, description="Lagged relative mid-price changes in the observation.")
+    number_of_deltas: int = Field(
+        60,
+        ge=1,
+        le=1440,
+        description="Lagged relative mid-price changes in the observation (at most 1440, a day of one-minute changes).",
+    )
     offset: int = Field(1, ge=1, description="Lag (minutes) of each mid-price change (a multiple of `bar_minutes`).")
     sequential: bool = Field(
         False,

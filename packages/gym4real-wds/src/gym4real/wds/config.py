@@ -4,16 +4,12 @@ from __future__ import annotations
 
 from typing import Literal, Self
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import Field, model_validator
 
-from gym4real.core.config import EnvConfig
-
-
-class _Section(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+from gym4real.core.config import ConfigSection, EnvConfig
 
 
-class EventProbs(_Section):
+class EventProbs(ConfigSection):
     """Probabilities of the demand buckets for training draws (they must sum to 1)."""
 
     normal: float = Field(0.6, ge=0, le=1, description="Probability of a `normal` profile file.")
@@ -28,7 +24,7 @@ class EventProbs(_Section):
         return self
 
 
-class DemandSection(_Section):
+class DemandSection(ConfigSection):
     """Demand profiles and the demand estimate of the observation."""
 
     event_probs: EventProbs = EventProbs()
@@ -52,7 +48,7 @@ class DemandSection(_Section):
         return self
 
 
-class RewardSection(_Section):
+class RewardSection(ConfigSection):
     """Reward weights and the overflow threshold."""
 
     dsr_coeff: float = Field(1.0, ge=0, description="Weight of the demand satisfaction ratio.")
@@ -66,7 +62,7 @@ class RewardSection(_Section):
     )
 
 
-class PdaSection(_Section):
+class PdaSection(ConfigSection):
     """Pressure-driven demand parameters (network pressure units); null keeps the network file's value."""
 
     minimum_pressure: float | None = Field(None, description="Pressure below which no demand is delivered.")
@@ -74,7 +70,7 @@ class PdaSection(_Section):
     exponent: float | None = Field(None, gt=0, description="Exponent of the pressure-demand relation.")
 
 
-class PumpRuleConfig(_Section):
+class PumpRuleConfig(ConfigSection):
     """One pump's tank-level rule, used by the `default` baseline when the network file has none."""
 
     pump: str = Field(description="Pump id.")
@@ -89,7 +85,7 @@ class PumpRuleConfig(_Section):
         return self
 
 
-class ObservationSection(_Section):
+class ObservationSection(ConfigSection):
     """Which junction pressures the observation holds."""
 
     junctions: list[str] | None = Field(
@@ -97,7 +93,7 @@ class ObservationSection(_Section):
     )
 
 
-class FixesSection(_Section):
+class FixesSection(ConfigSection):
     """Individual switches of the reference defects; null follows `fidelity`."""
 
     fixed_interval: bool | None = Field(
