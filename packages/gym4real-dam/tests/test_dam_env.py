@@ -178,7 +178,7 @@ def test_out_of_space_actions_raise_when_configured() -> None:
     env = DamEnv(invalid_action="raise")
     env.reset(seed=0)
     for bad in (-0.1, 600.0, float("inf")):
-        with pytest.raises(ValueError, match="outside the action space"):
+        with pytest.raises(ValueError, match="not in the action space"):
             env.step(np.array([bad]))
     env.step(np.array([491.61], dtype=np.float32))  # the bound itself is fine
 

@@ -97,19 +97,19 @@ def test_bad_actions_are_refused_like_the_single_env() -> None:
     vec = DamVectorEnv(3, preset="test")
     vec.reset(seed=0)
     level = vec.level
-    with pytest.raises(ValueError, match="shape \\(3, 1\\)"):
+    with pytest.raises(ValueError, match=r"shape \(3, 2\), not \(3, 1\)"):
         vec.step(np.zeros((3, 2), dtype=np.float32))
-    with pytest.raises(ValueError, match="shape \\(3, 1\\)"):
+    with pytest.raises(ValueError, match=r"shape \(4, 1\), not \(3, 1\)"):
         vec.step(np.zeros((4, 1), dtype=np.float32))
-    with pytest.raises(ValueError, match="releases"):
+    with pytest.raises(ValueError, match="it holds text, not numbers"):
         vec.step(["a", "b", "c"])
-    with pytest.raises(ValueError, match="copies \\[1\\] are NaN"):
+    with pytest.raises(ValueError, match=r"\(copies \[1\]\) .*NaN"):
         vec.step(np.array([[1.0], [np.nan], [2.0]]))
     strict = DamVectorEnv(3, preset="test", invalid_action="raise")
     strict.reset(seed=0)
-    with pytest.raises(ValueError, match="outside the action space"):
+    with pytest.raises(ValueError, match="not in the action space"):
         strict.step(np.array([[1.0], [600.0], [2.0]]))
-    with pytest.raises(ValueError, match="outside the action space"):
+    with pytest.raises(ValueError, match="not in the action space"):
         DamEnv(preset="test", invalid_action="raise").step(np.array([600.0]))  # as the single env
     np.testing.assert_array_equal(vec.level, level)  # the refused steps changed nothing
     _, rewards, *_ = vec.step(np.array([100.0, 200.0, 300.0]))  # shape (num_envs,) is fine

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import re
 from typing import Any
 
 import gymnasium as gym
@@ -98,12 +97,17 @@ def test_batched_rainflow_counts_as_the_scalar_counter() -> None:
     assert batched.depth > 2
 
 
-def _reference_error(action: np.ndarray) -> str:
+def _problem(message: str) -> str:
+    """What an action error says is wrong (between the action space and what was expected)."""
+    return message.split("float32): ", 1)[1].split("; expected")[0]
+
+
+def _single_env_problem(action: np.ndarray) -> str:
     env = MicrogridEnv()
     env.reset(seed=0)
-    with pytest.raises(ValueError) as exc:
+    with pytest.raises(ValueError, match="not in the action space") as exc:
         env.step(action)
-    return str(exc.value)
+    return _problem(str(exc.value))
 
 
 @pytest.mark.parametrize("bad", [np.nan, 1.5, -0.25])
@@ -112,10 +116,11 @@ def test_bad_actions_raise_the_single_env_error(bad: float) -> None:
     vec.reset(seed=0)
     actions = np.full((3, 1), 0.5, np.float32)
     actions[1] = bad
-    with pytest.raises(ValueError, match=re.escape(_reference_error(np.array([bad], np.float32)))) as exc:
+    with pytest.raises(ValueError, match="not in the action space") as exc:
         vec.step(actions)
-    assert "copy 1 of 3" in exc.value.__notes__[0]
-    with pytest.raises(ValueError, match=r"actions must hold one value in \[0, 1\] per copy"):
+    assert _problem(str(exc.value)) == _single_env_problem(np.array([bad], np.float32))
+    assert "(copies [1])" in str(exc.value)
+    with pytest.raises(ValueError, match=r"shape \(3, 2\), not \(3, 1\)"):
         vec.step(np.full((3, 2), 0.5, np.float32))
 
 

@@ -6,6 +6,7 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 from gym4real.core.errors import (
+    ActionError,
     ConfigError,
     DataFileError,
     EnvUnavailableError,
@@ -56,6 +57,7 @@ def __getattr__(name: str) -> Any:
 __all__ = [
     "FLAGS",
     "PLUGIN_API_VERSION",
+    "ActionError",
     "BaselineSpec",
     "BenchmarkResult",
     "BenchmarkSpec",

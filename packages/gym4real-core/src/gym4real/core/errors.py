@@ -11,6 +11,10 @@ class ConfigError(Gym4RealError, ValueError):
     """A configuration value, preset name or keyword override is invalid."""
 
 
+class ActionError(Gym4RealError, ValueError):
+    """An action passed to ``step`` is not in the environment's action space."""
+
+
 class DataFileError(Gym4RealError, FileNotFoundError):
     """A data file is missing, corrupt or malformed."""
 

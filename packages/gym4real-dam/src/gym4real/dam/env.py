@@ -13,6 +13,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from gym4real.core.actions import box_action
 from gym4real.core.datasets import resolve
 from gym4real.core.errors import ConfigError, DataFileError
 from gym4real.core.perturbation import check_scales
@@ -26,6 +27,8 @@ if TYPE_CHECKING:
 COMPONENTS = ("deficit", "overflow", "starving", "wasted_water", "clipping")
 PERTURBABLE = ("lake_surface", "inflow")
 _RESET_OPTIONS = ("year", "rewind_profiles", "init_level")
+#: What an action means, for the error of an action outside the action space.
+RELEASE = "one release decision in m3/s"
 _F32 = np.float32
 
 
@@ -64,7 +67,8 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
     ## Action Space
     ``Box(0.0, 491.61, (1,), float32)``: the target release in m3/s (bounds from ``action``). An action
     outside the box is clipped into it (``invalid_action="clip"``, the reference) or rejected with a
-    ValueError (``"raise"``); a NaN, or an action with other than one element, always raises ValueError.
+    ValueError (``"raise"``); a NaN or an infinity, or an action with other than one element, always raises
+    :class:`~gym4real.core.errors.ActionError` (a ValueError).
 
     ## Observation Space
     ``Box(float32)`` with the requested ``observations`` in this order:
@@ -540,31 +544,11 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
         return years[self._cycle]
 
     def _decision(self, action: Any) -> float:
-        """The action as a float inside the box (clipped, or ValueError, as configured)."""
-        if type(action) is np.ndarray and action.size == 1:
-            a = action.item()
-            if type(a) is not float:
-                a = float(a)
-        else:
-            try:
-                arr = np.asarray(action, dtype=np.float64)
-            except (TypeError, ValueError):
-                raise ValueError(f"action must be one number (m3/s), not {action!r}") from None
-            if arr.size != 1:
-                raise ValueError(f"action must hold exactly one release (m3/s), got shape {arr.shape}")
-            a = float(arr.reshape(-1)[0])
-        if a != a:
-            raise ValueError("action is NaN; expected a release in m3/s")
-        self._raw_action = a
-        if a < self._a_low or a > self._a_high:
-            if self.config.invalid_action == "raise":
-                msg = (
-                    f"action {a} is outside the action space [{self._a_low}, {self._a_high}]; clip it, or set "
-                    f'`invalid_action="clip"`'
-                )
-                raise ValueError(msg)
-            a = self._a_low if a < self._a_low else self._a_high
-        return a
+        """The action as a float inside the box (clipped, or ActionError, as configured)."""
+        outside = "keep" if self.config.invalid_action == "clip" else "raise"
+        fix = 'clip it, or set `invalid_action="clip"`'
+        a = self._raw_action = float(box_action(action, self.action_space, RELEASE, outside=outside, fix=fix)[0])
+        return self._a_low if a < self._a_low else self._a_high if a > self._a_high else a
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Release water for one day; return the observation after the day."""

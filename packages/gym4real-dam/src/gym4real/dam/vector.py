@@ -11,10 +11,11 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from gym4real.core.actions import box_actions
 from gym4real.core.errors import ConfigError
 from gym4real.core.vector import check_max_episode_steps
 from gym4real.dam.config import DamConfig
-from gym4real.dam.env import _RESET_OPTIONS, COMPONENTS, DamEnv
+from gym4real.dam.env import _RESET_OPTIONS, COMPONENTS, RELEASE, DamEnv
 
 _NEEDED_FIXES = ("current_level_observation", "np_random_years")
 
@@ -121,7 +122,6 @@ class DamVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         )
         self._dt, self._substeps = lake.dt, lake.substeps
         self._sin, self._cos = np.array(s._sin), np.array(s._cos)
-        self._a_low, self._a_high = s._a_low, s._a_high
 
     def _start(self, year_index: np.ndarray, level: np.ndarray) -> None:
         n = self.num_envs
@@ -247,28 +247,10 @@ class DamVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
 
     def _decisions(self, actions: Any) -> np.ndarray:
         """The actions as float64 releases inside the box (clipped, or ValueError, as configured)."""
-        n = self.num_envs
-        try:
-            a = np.asarray(actions, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise ValueError(f"actions must be {n} releases (m3/s), not {actions!r}") from None
-        if a.shape not in ((n, 1), (n,)):
-            raise ValueError(f"actions must have shape ({n}, 1), one release (m3/s) per copy; got shape {a.shape}")
-        a = a.reshape(n)
-        low, high = self._a_low, self._a_high
-        if low <= a.min() and a.max() <= high:  # False with a NaN
-            return a
-        nan = np.flatnonzero(np.isnan(a))
-        if nan.size:
-            raise ValueError(f"actions of copies {nan.tolist()} are NaN; expected releases in m3/s")
-        if self.config.invalid_action == "raise":
-            out = np.flatnonzero((a < low) | (a > high))
-            msg = (
-                f"actions {a[out].tolist()} of copies {out.tolist()} are outside the action space [{low}, {high}]; "
-                f'clip them, or set `invalid_action="clip"`'
-            )
-            raise ValueError(msg)
-        return np.clip(a, low, high)
+        outside = "clip" if self.config.invalid_action == "clip" else "raise"
+        fix = 'clip them, or set `invalid_action="clip"`'
+        a = box_actions(actions, self.single_action_space, self.num_envs, RELEASE, outside=outside, fix=fix)
+        return a.reshape(self.num_envs)
 
     def _integrate(
         self, decision: np.ndarray, inflow: np.ndarray, min_flow: np.ndarray, evaporation: np.ndarray

@@ -10,6 +10,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from gym4real.core.actions import discrete_action
 from gym4real.elevator import arrivals
 from gym4real.elevator.config import ElevatorConfig
 
@@ -17,6 +18,7 @@ if TYPE_CHECKING:
     from gym4real.elevator.rendering import ElevatorRenderer
 
 DOWN, OPEN, UP = 0, 1, 2
+ACTIONS = "0 (down), 1 (open) or 2 (up)"
 
 
 class ElevatorEnv(gym.Env[dict[str, Any], int]):
@@ -209,14 +211,12 @@ class ElevatorEnv(gym.Env[dict[str, Any], int]):
 
     def step(self, action: int) -> tuple[dict[str, Any], float, bool, bool, dict[str, Any]]:
         """Move or open the doors, then let last second's arrivals join the queues."""
+        action = discrete_action(action, self.action_space, ACTIONS)
         if action == UP:
             if self._pos < self._top:
                 self._pos += 1
-        elif action == DOWN:
-            if self._pos > 0:
-                self._pos -= 1
-        elif action != OPEN:
-            raise ValueError(f"action must be 0 (down), 1 (open) or 2 (up), not {action!r}")
+        elif action == DOWN and self._pos > 0:
+            self._pos -= 1
 
         served = 0
         if action == OPEN and (self._upstream or self._pos % self._ppf == 0):

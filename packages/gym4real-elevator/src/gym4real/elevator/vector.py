@@ -12,10 +12,11 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from gym4real.core.actions import discrete_actions
 from gym4real.core.vector import check_max_episode_steps
 from gym4real.elevator import arrivals
 from gym4real.elevator.config import ElevatorConfig
-from gym4real.elevator.env import DOWN, OPEN, UP, ElevatorEnv
+from gym4real.elevator.env import ACTIONS, DOWN, OPEN, UP, ElevatorEnv
 
 
 class ElevatorVectorEnv(VectorEnv[dict[str, Any], np.ndarray, np.ndarray]):
@@ -115,9 +116,7 @@ class ElevatorVectorEnv(VectorEnv[dict[str, Any], np.ndarray, np.ndarray]):
         if self._needs_reset:
             obs, info = self.reset()
             return obs, np.zeros(n), np.zeros(n, dtype=bool), np.zeros(n, dtype=bool), info
-        a = np.asarray(actions)
-        if a.shape != (n,) or not np.isin(a, (DOWN, OPEN, UP)).all():
-            raise ValueError(f"actions must be {n} values in {{0, 1, 2}}, got {actions!r}")
+        a = discrete_actions(actions, self.single_action_space, n, ACTIONS)
         s = self.single
         pos, load, queues = self._pos, self._load, self._queues
         pos += (a == UP) & (pos < s._top)

@@ -14,6 +14,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from gym4real.core.actions import box_action
 from gym4real.core.errors import DataFileError
 from gym4real.core.perturbation import check_scales
 from gym4real.microgrid.battery import BatteryParams, BatteryTwin, TwinOptions, load_battery
@@ -55,11 +56,8 @@ TWIN_FIXES = (
 
 #: How far outside [0, 1] an action may stray (float rounding) before it is refused; it is then clipped.
 ACTION_TOLERANCE = 1e-6
-
-
-def action_error(value: float) -> ValueError:
-    """The error of an action outside ``[0, 1]`` (or NaN), shared by the single and the batched env."""
-    return ValueError(f"action must be in [0, 1] (the fraction of net power sent to the battery), got {value!r}")
+#: What an action means, for the error of an action outside the action space.
+ACTIONS = "the fraction of the net power sent to (or taken from) the battery, in [0, 1]"
 
 
 @functools.lru_cache(maxsize=8)
@@ -489,18 +487,7 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Route the fraction ``action`` of the net power to the battery for ``decision_interval`` hours."""
-        if type(action) is np.ndarray and action.shape == (1,):
-            a = float(action[0])
-        else:
-            flat = np.asarray(action, dtype=np.float64).reshape(-1)
-            if flat.shape != (1,):
-                msg = f"action must hold one value in [0, 1], got shape {np.shape(action)}"
-                raise ValueError(msg)
-            a = float(flat[0])
-        if not 0.0 <= a <= 1.0:
-            if not -ACTION_TOLERANCE <= a <= 1.0 + ACTION_TOLERANCE:  # NaN fails both tests
-                raise action_error(a)
-            a = 0.0 if a < 0.0 else 1.0
+        a = float(box_action(action, self.action_space, ACTIONS, tolerance=ACTION_TOLERANCE)[0])
 
         w, bat = self.world, self.battery
         dt = self._step_s

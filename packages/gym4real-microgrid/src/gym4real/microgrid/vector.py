@@ -18,18 +18,19 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from gym4real.core.actions import box_actions
 from gym4real.core.vector import check_max_episode_steps
 from gym4real.microgrid.aging import AgingParams
 from gym4real.microgrid.battery import KELVIN, BatteryParams
 from gym4real.microgrid.config import MicrogridConfig
 from gym4real.microgrid.env import (
     ACTION_TOLERANCE,
+    ACTIONS,
     SECONDS_PER_DAY,
     SECONDS_PER_YEAR,
     TWIN_FIXES,
     TWO_PI,
     MicrogridEnv,
-    action_error,
 )
 
 Array = np.ndarray
@@ -280,8 +281,8 @@ class MicrogridVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
 
     ## Spaces
     ``action_space``: ``Box(0, 1, (num_envs, 1), float32)``; an array of shape ``(num_envs,)`` is accepted
-    too. Every action is checked as the single env does (NaN or outside ``[0, 1]`` beyond 1e-6 raises the
-    single env's ``ValueError``, with a note naming the copy). ``observation_space``: the single env's
+    too. Every action is checked as the single env does (NaN or outside ``[0, 1]`` beyond 1e-6 raises
+    :class:`~gym4real.core.errors.ActionError`, naming the copies). ``observation_space``: the single env's
     observation batched, ``(num_envs, 10)`` (11 with ``observe_soh``).
 
     ## Seeding and episodes
@@ -442,19 +443,7 @@ class MicrogridVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
 
     def _actions(self, actions: Any) -> Array:
         n = self.num_envs
-        a = np.asarray(actions, dtype=np.float64)
-        if a.shape not in ((n, 1), (n,)):
-            msg = f"actions must hold one value in [0, 1] per copy, shape ({n}, 1) or ({n},), got shape {a.shape}"
-            raise ValueError(msg)
-        a = a.reshape(n)
-        if not ((a >= 0.0) & (a <= 1.0)).all():
-            bad = np.flatnonzero(~((a >= -ACTION_TOLERANCE) & (a <= 1.0 + ACTION_TOLERANCE)))
-            if bad.size:
-                exc = action_error(float(a[bad[0]]))
-                exc.add_note(f"(copy {bad[0]} of {n})")
-                raise exc
-            a = np.clip(a, 0.0, 1.0)
-        return a
+        return box_actions(actions, self.single_action_space, n, ACTIONS, tolerance=ACTION_TOLERANCE).reshape(n)
 
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Route each copy's fraction of its net power to its battery for ``decision_interval`` hours.

@@ -10,6 +10,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from gym4real.core.actions import box_action
 from gym4real.robofeeder.config import PickingConfig, RoboFeederConfig
 from gym4real.robofeeder.detection import Detection, Detector, crop, make_detector
 from gym4real.robofeeder.rendering import grayscale
@@ -90,17 +91,6 @@ class RoboFeederBaseEnv(gym.Env[np.ndarray, Any]):
 
     def _theta(self, a: float) -> float:
         return (float(a) + 1.0) * np.pi / 2.0
-
-    def _check_action(self, action: Any) -> np.ndarray:
-        a = np.array(action, dtype=np.float64).reshape(-1)  # a copy: the caller's array is never changed
-        if a.shape != (3,):
-            raise ValueError(f"action must have shape (3,), got {np.shape(action)}")
-        if not np.all(np.isfinite(a)):
-            raise ValueError(f"action must be finite, got {a.tolist()}")
-        if np.any(np.abs(a) > 1.0 + 1e-6):
-            msg = f"action {a.tolist()} is outside the action space [-1, 1]^3; clip it (e.g. `np.clip(a, -1, 1)`)"
-            raise ValueError(msg)
-        return a
 
     def grasp_yaw_target(self, index: int) -> tuple[np.ndarray, float, bool]:
         """The oracle's grasp of object ``index``: world (x, y), joint-6 angle, and whether it is graspable.
@@ -267,7 +257,7 @@ class RoboFeederPickingEnv(RoboFeederBaseEnv):
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Attempt one pick at the grasp point and angle of ``action``."""
-        a = self._check_action(action)
+        a = box_action(action, self.action_space, "grasp point (x, y) and angle, each in [-1, 1]", tolerance=1e-6)
         pixel = self._target_pixel(a)
         theta = self._theta(a[2])
         xy = self.sim.camera.pixel_to_world(pixel)

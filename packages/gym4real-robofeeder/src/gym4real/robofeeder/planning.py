@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
+from gym4real.core.actions import discrete_action
 from gym4real.core.datasets import resolve
 from gym4real.core.errors import PolicyError
 from gym4real.robofeeder._plugin import PICKING_AGENT
@@ -170,11 +171,7 @@ class RoboFeederPlanningEnv(RoboFeederBaseEnv):
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Idle (0) or let the picking agent grasp the object of crop ``action``."""
-        arr = np.asarray(action)
-        valid = arr.size == 1 and np.issubdtype(arr.dtype, np.integer)
-        if not valid or not 0 <= int(arr.reshape(-1)[0]) <= self.n_crops:
-            raise ValueError(f"action must be an integer in [0, {self.n_crops}], got {action!r}")
-        a = int(arr.reshape(-1)[0])
+        a = discrete_action(action, self.action_space, f"0 (idle) or the crop 1..{self.n_crops} to pick from")
         comps = dict.fromkeys(self.reward_component_names, 0.0)
         info: dict[str, Any] = {
             "success": False,

@@ -11,13 +11,13 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from gym4real.core.actions import discrete_action
 from gym4real.core.perturbation import check_scales
 from gym4real.trading import features
 from gym4real.trading.config import TradingConfig
 
 SHORT, FLAT, LONG = 0, 1, 2
-_ACTIONS: dict[Any, int] = {SHORT: SHORT, FLAT: FLAT, LONG: LONG}
-_INT_TYPES = frozenset({int, np.int64, np.int32, np.intp})
+ACTIONS = "0 (short), 1 (flat) or 2 (long)"
 
 
 class TradingEnv(gym.Env[np.ndarray, Any]):
@@ -270,22 +270,9 @@ class TradingEnv(gym.Env[np.ndarray, Any]):
 
     _started = False
 
-    def _action(self, action: Any) -> int:
-        try:
-            arr = np.asarray(action)
-            if arr.size == 1 and arr.dtype.kind in "iu":
-                value = int(arr.reshape(()))
-                if value in _ACTIONS:
-                    return value
-        except (TypeError, ValueError):
-            pass
-        raise ValueError(f"action must be 0 (short), 1 (flat) or 2 (long), not {action!r}")
-
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Hold the chosen position over the next ``persistence`` minutes (see the class docstring)."""
-        a = _ACTIONS.get(action) if action.__class__ in _INT_TYPES else None
-        if a is None:
-            a = self._action(action)
+        a = discrete_action(action, self.action_space, ACTIONS)
         k = self._k
         if k >= self.n_steps:
             raise RuntimeError("the trading day is over: call `reset()` before `step()`")

@@ -12,9 +12,10 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from gym4real.core.actions import discrete_actions
 from gym4real.core.vector import check_max_episode_steps
 from gym4real.trading.config import TradingConfig
-from gym4real.trading.env import FLAT, TradingEnv
+from gym4real.trading.env import ACTIONS, FLAT, TradingEnv
 
 
 class TradingVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
@@ -92,9 +93,7 @@ class TradingVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         if self._needs_reset:
             obs, info = self.reset()
             return obs, np.zeros(n), np.zeros(n, dtype=bool), np.zeros(n, dtype=bool), info
-        a = np.asarray(actions)
-        if a.shape != (n,) or not np.isin(a, (0, 1, 2)).all():
-            raise ValueError(f"actions must be {n} values in {{0, 1, 2}}, got {actions!r}")
+        a = discrete_actions(actions, self.single_action_space, n, ACTIONS)
         k = self._k
         pos = a - 1
         pnl = s._cap * pos * (self._mid[:, k + 1] - self._mid[:, k])

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import operator
 import weakref
 from collections.abc import Mapping
 from pathlib import Path
@@ -13,6 +12,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from gym4real.core.actions import discrete_action
 from gym4real.core.datasets import resolve
 from gym4real.core.errors import ConfigError
 from gym4real.core.perturbation import check_scales
@@ -257,6 +257,8 @@ class WDSEnv(gym.Env[np.ndarray, np.int64]):
         self._n_tanks, self._n_obs_junctions = n_t, n_j
         self.observation_space = spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
         self.action_space = spaces.Discrete(2**self._n_pumps)
+        p = self._n_pumps
+        self._actions = f"0..{2**p - 1}, whose {p} bits (most significant first) open (1) or close (0) the pumps"
         self.observation_names = (
             *net.tank_ids,
             *(net.junction_ids[i] for i in observed),
@@ -414,7 +416,7 @@ class WDSEnv(gym.Env[np.ndarray, np.int64]):
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Set the pumps, advance the hydraulics one decision interval (or one EPANET event upstream)."""
-        a = self._check_action(action)
+        a = discrete_action(action, self.action_space, self._actions)
         if self._done:
             raise RuntimeError("the episode has ended: call `reset()` before `step()`")
         self._apply(a)
@@ -434,16 +436,6 @@ class WDSEnv(gym.Env[np.ndarray, np.int64]):
         return self._obs, float(reward), False, truncated, info
 
     # -- dynamics ----------------------------------------------------------------------------------
-
-    def _check_action(self, action: Any) -> int:
-        try:
-            a = operator.index(action)
-        except TypeError:
-            a = None
-        if a is None or not 0 <= a < 2**self._n_pumps:
-            msg = f"action must be an int in [0, {2**self._n_pumps}) (one bit per pump), not {action!r}"
-            raise ValueError(msg)
-        return a
 
     def _apply(self, a: int) -> None:
         if not self._agent_pumps:  # EPANET's controls switch the pumps

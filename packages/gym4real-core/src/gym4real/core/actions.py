@@ -1,0 +1,188 @@
+"""The one check of an action against an environment's action space, with the same error everywhere.
+
+Every environment's ``step`` (and every batched env's, per copy) passes its action through
+:func:`discrete_action` or :func:`box_action`. What is not in the action space raises
+:class:`~gym4real.core.errors.ActionError` (a ``ValueError``) naming the action, the space, what is
+wrong with it and what was expected:
+
+* a ``Discrete`` action is one integer (a Python ``int``, a numpy integer, or an integer array holding
+  exactly one value) inside the space; floats (even ``1.0``), booleans, strings, complex numbers and
+  arrays of several values are refused;
+* a ``Box`` action is an array of real numbers (integer or float dtype) of the space's shape (extra
+  axes of length one are ignored: ``(1, 3)`` for ``(3,)``); strings, booleans, complex numbers, object
+  arrays and non-finite values are refused. What happens outside the bounds is the env's definition:
+  ``outside="raise"`` refuses it, ``"clip"`` clips it into the box, and ``"keep"`` returns it as it is
+  for the env to clip and report itself; a ``tolerance`` lets values that far outside through, clipped
+  to the bound (float rounding of an action computed at the bound).
+"""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+import numpy as np
+from gymnasium import spaces
+
+from gym4real.core.config import quote
+from gym4real.core.errors import ActionError
+
+Outside = Literal["raise", "clip", "keep"]
+
+_INTEGER_KINDS = "iu"
+_REAL_KINDS = "iuf"
+
+
+def _refuse(action: Any, space: spaces.Space[Any], problem: str, expected: str, copies: str = "") -> ActionError:
+    return ActionError(
+        f"action {quote(action)}{copies} is not in the action space {space}: {problem}; expected {expected}"
+    )
+
+
+def _kind_problem(arr: np.ndarray) -> str:
+    if arr.dtype.kind == "O" and arr.ndim == 0 and arr.item() is None:
+        return "it is None"
+    kind = arr.dtype.kind
+    if kind == "c":
+        return "complex numbers are not actions (their imaginary part would be lost)"
+    if kind == "b":
+        return "booleans are not numbers here"
+    if kind in "USO":
+        what = {"U": "text", "S": "bytes", "O": "Python objects"}[kind]
+        return f"it holds {what}, not numbers (convert it first, e.g. `np.asarray(a, dtype=float)`)"
+    return f"its dtype {arr.dtype} is not numeric"
+
+
+def _as_array(action: Any, space: spaces.Space[Any], expected: str) -> np.ndarray:
+    try:
+        return np.asarray(action)
+    except (TypeError, ValueError) as exc:  # ragged nesting, objects numpy cannot hold
+        raise _refuse(action, space, f"it is not an array of numbers ({exc})", expected) from None
+
+
+def discrete_action(action: Any, space: spaces.Discrete, meaning: str) -> int:
+    """The action as an ``int`` of ``space``, or :class:`ActionError`.
+
+    Args:
+        action: What the agent passed to ``step``.
+        space: The env's ``Discrete`` action space.
+        meaning: What the values mean, for the message (``"0 (down), 1 (open) or 2 (up)"``).
+    """
+    low = int(space.start)
+    high = low + int(space.n) - 1
+    if type(action) is int or (isinstance(action, np.integer) and not isinstance(action, np.bool_)):
+        value = int(action)
+    else:
+        arr = _as_array(action, space, meaning)
+        if isinstance(action, bool) or arr.dtype.kind not in _INTEGER_KINDS:
+            problem = "it is not an integer" if arr.dtype.kind in "f" else _kind_problem(arr)
+            raise _refuse(action, space, problem, f"one integer: {meaning}")
+        if arr.size != 1:
+            raise _refuse(action, space, f"it holds {arr.size} values", f"one integer: {meaning}")
+        value = int(arr.reshape(-1)[0])
+    if not low <= value <= high:
+        raise _refuse(action, space, f"{value} is outside [{low}, {high}]", meaning)
+    return value
+
+
+def discrete_actions(actions: Any, space: spaces.Discrete, num_envs: int, meaning: str) -> np.ndarray:
+    """The actions of ``num_envs`` copies as an ``int64`` array ``(num_envs,)``, or :class:`ActionError`."""
+    low = int(space.start)
+    high = low + int(space.n) - 1
+    expected = f"{num_envs} integers, one per copy: {meaning}"
+    arr = _as_array(actions, space, expected)
+    if arr.dtype.kind not in _INTEGER_KINDS:
+        problem = "they are not integers" if arr.dtype.kind == "f" else _kind_problem(arr)
+        raise _refuse(actions, space, problem, expected)
+    if arr.size != num_envs or _squeezed(arr.shape) != _squeezed((num_envs,)):
+        raise _refuse(actions, space, f"shape {arr.shape}, not ({num_envs},)", expected)
+    values = arr.reshape(num_envs).astype(np.int64)
+    bad = np.flatnonzero((values < low) | (values > high))
+    if bad.size:
+        problem = f"{values[bad].tolist()} outside [{low}, {high}]"
+        raise _refuse(actions, space, problem, meaning, copies=f" (copies {bad.tolist()})")
+    return values
+
+
+def _squeezed(shape: tuple[int, ...]) -> tuple[int, ...]:
+    return tuple(d for d in shape if d != 1)
+
+
+def _real(action: Any, space: spaces.Box, shape: tuple[int, ...], expected: str) -> np.ndarray:
+    """``action`` as a float64 copy of ``shape``: real, finite numbers only."""
+    arr = _as_array(action, space, expected)
+    if arr.dtype.kind not in _REAL_KINDS:
+        raise _refuse(action, space, _kind_problem(arr), expected)
+    if arr.shape != shape and (arr.size != int(np.prod(shape)) or _squeezed(arr.shape) != _squeezed(shape)):
+        raise _refuse(action, space, f"shape {arr.shape}, not {shape}", expected)
+    a = np.array(arr, dtype=np.float64).reshape(shape)  # a copy: the caller's array is never changed
+    finite = np.isfinite(a)
+    if not finite.all():
+        raise _refuse(action, space, "NaN and infinities are not actions", expected, _copies(~finite, space))
+    return a
+
+
+def _copies(bad: np.ndarray, space: spaces.Box) -> str:
+    """`` (copies [...])`` naming the rows of a batch with a ``bad`` element; empty for a single action."""
+    if bad.ndim == len(space.shape):
+        return ""
+    return f" (copies {np.flatnonzero(bad.reshape(len(bad), -1).any(axis=1)).tolist()})"
+
+
+def _bounds(
+    a: np.ndarray, action: Any, space: spaces.Box, meaning: str, outside: Outside, tolerance: float, fix: str
+) -> np.ndarray:
+    low, high = space.low.astype(np.float64), space.high.astype(np.float64)
+    if outside == "keep" or ((a >= low) & (a <= high)).all():
+        return a
+    if outside == "raise":
+        beyond = (a < low - tolerance) | (a > high + tolerance)
+        if beyond.any():
+            problem = f"it is outside {_describe(space)}"
+            raise _refuse(action, space, problem, f"{meaning}; {fix}", _copies(beyond, space))
+    return np.clip(a, low, high)
+
+
+def _describe(space: spaces.Box) -> str:
+    low, high = np.unique(space.low), np.unique(space.high)
+    if low.size == high.size == 1:
+        return f"[{low[0]:g}, {high[0]:g}]"
+    return f"[{space.low.tolist()}, {space.high.tolist()}]"
+
+
+def box_action(
+    action: Any,
+    space: spaces.Box,
+    meaning: str,
+    *,
+    outside: Outside = "raise",
+    tolerance: float = 0.0,
+    fix: str = "clip it into the box (`np.clip(a, low, high)`)",
+) -> np.ndarray:
+    """The action as a float64 array of ``space.shape`` (a copy), or :class:`ActionError`.
+
+    Args:
+        action: What the agent passed to ``step``.
+        space: The env's ``Box`` action space.
+        meaning: What the values mean, for the message (``"the release in m3/s"``).
+        outside: Beyond the bounds: ``"raise"``, ``"clip"`` into the box, or ``"keep"`` (the env clips).
+        tolerance: How far beyond the bounds a value is still accepted (and clipped to the bound).
+        fix: What to do about an action outside the bounds (with ``outside="raise"``).
+    """
+    a = _real(action, space, space.shape, meaning)
+    return _bounds(a, action, space, meaning, outside, tolerance, fix)
+
+
+def box_actions(
+    actions: Any,
+    space: spaces.Box,
+    num_envs: int,
+    meaning: str,
+    *,
+    outside: Outside = "raise",
+    tolerance: float = 0.0,
+    fix: str = "clip them into the box (`np.clip(a, low, high)`)",
+) -> np.ndarray:
+    """The actions of ``num_envs`` copies as float64 ``(num_envs, *space.shape)``, checked as :func:`box_action`."""
+    shape = (num_envs, *space.shape)
+    a = _real(actions, space, shape, f"{num_envs} actions, one per copy: {meaning}")
+    return _bounds(a, actions, space, meaning, outside, tolerance, fix)
