@@ -41,8 +41,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-import yaml
-
+from gym4real.core.config import read_yaml
 from gym4real.core.errors import ConfigError, DataFileError
 from gym4real.microgrid.aging import CALENDAR_FACTORS, CYCLIC_FACTORS, AgingParams, BolunAging
 from gym4real.microgrid.tables import ParameterGrid, read_table
@@ -110,15 +109,7 @@ class BatteryParams:
 
 
 def _yaml(path: Path) -> dict[str, Any]:
-    try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except (OSError, yaml.YAMLError) as exc:
-        msg = f"cannot read battery configuration `{path}`: {exc}"
-        raise DataFileError(msg) from exc
-    if not isinstance(data, dict):
-        msg = f"battery configuration `{path}` must hold a mapping, not {type(data).__name__}"
-        raise DataFileError(msg)
-    return data
+    return read_yaml(path, "battery configuration", DataFileError)
 
 
 def _get(data: Mapping[str, Any], keys: str, path: Path, kind: type = float) -> Any:

@@ -1,8 +1,11 @@
 """The exogenous series of MicrogridEnv: demand profiles, PV generation, market prices, ambient temperature.
 
-Each file is read once per process (memoised on its path, size and modification time) and validated:
-a missing column, a non-numeric, negative or non-finite value, or an irregular time step raises
-:class:`~gym4real.core.errors.DataFileError` naming the file and what was expected.
+Each file is read once per process (memoised on its path, size and modification time) and validated
+against its table's schema: a missing column, a column of another table (the market file given as
+demand), a non-numeric or non-finite value, a value outside the plausible range of its unit
+(:data:`UNITS`: a price in EUR/MWh, a demand in kW, a temperature in °C), ask below bid, or an
+irregular time step raises :class:`~gym4real.core.errors.DataFileError` naming the file, the column
+and what was expected.
 """
 
 from __future__ import annotations
@@ -23,14 +26,27 @@ TEST_DEMAND = "demand/test"
 class TrainingOnTestDataWarning(UserWarning):
     """Episodes are drawn at random (as for training) from the households the paper evaluates on."""
 
+#: Unit and plausible range ``(low, high, unit)`` of every value column (demand: each household column).
+UNITS: dict[str, tuple[float, float, str]] = {
+    "demand": (0.0, 100_000.0, "W per household"),
+    "PV": (0.0, 100_000_000.0, "W"),
+    "ask": (0.0, 0.01, "EUR/Wh (0.01 EUR/Wh is 10,000 EUR/MWh; divide EUR/MWh by 1e6, EUR/kWh by 1e3)"),
+    "bid": (0.0, 0.01, "EUR/Wh (0.01 EUR/Wh is 10,000 EUR/MWh; divide EUR/MWh by 1e6, EUR/kWh by 1e3)"),
+    "temp_amb": (150.0, 350.0, "K (add 273.15 to °C)"),
+}
+#: Smallest peak of a demand file (W): a file whose largest household demand is lower is in kW or not demand.
+MIN_DEMAND_PEAK = 10.0
+#: Which table each value column belongs to (a demand file must hold none of them).
+TABLE_OF = {"PV": "generation", "ask": "market", "bid": "market", "temp_amb": "ambient temperature"}
+
 
 def data_path(ref: str, data_dir: str | Path | None) -> Path:
     """Locate a data file: a path ending in ``.csv`` as given, otherwise a registered ``microgrid/<ref>``."""
     if ref.endswith(".csv"):
         path = Path(ref).expanduser()
         if not path.is_file():
-            msg = f"data file `{path}` does not exist"
-            raise DataFileError(msg)
+            problem = "is a folder, not a CSV file" if path.is_dir() else "does not exist"
+            raise DataFileError(f"data file `{path}` {problem}; give the path of a `.csv` file or a registered name")
         return path
     from gym4real.core.datasets import resolve
 
@@ -53,24 +69,25 @@ def _read(path: Path, columns: list[str], what: str) -> pd.DataFrame:
     return frame
 
 
-def _numeric(frame: pd.DataFrame, column: str, path: Path, what: str, minimum: float | None = 0.0) -> np.ndarray:
+def _numeric(frame: pd.DataFrame, column: str, path: Path, what: str, unit: str | None = None) -> np.ndarray:
+    """A column's values: finite numbers, within the range of ``UNITS[unit]`` (no range when ``None``)."""
     values = pd.to_numeric(frame[column], errors="coerce").to_numpy(dtype=np.float64)
     bad = ~np.isfinite(values)
-    if minimum is not None:
-        bad |= values < minimum
+    expected = "a finite number"
+    if unit is not None:
+        low, high, name = UNITS[unit]
+        bad |= (values < low) | (values > high)
+        expected = f"a number in [{low:g}, {high:g}] {name}"
     if bad.any():
         row = int(np.flatnonzero(bad)[0])
-        limit = "" if minimum is None else f" >= {minimum}"
-        msg = (
-            f"{what} file `{path}`: column `{column}` row {row + 2} holds {frame[column].iloc[row]!r}; "
-            f"expected a finite number{limit}"
-        )
+        value = frame[column].iloc[row]
+        msg = f"{what} file `{path}`: column `{column}` row {row + 2} holds {value!r}; expected {expected}"
         raise DataFileError(msg)
     return values
 
 
 def _check_step(frame: pd.DataFrame, path: Path, what: str, step: float) -> np.ndarray:
-    times = _numeric(frame, "delta_time", path, what, minimum=None)
+    times = _numeric(frame, "delta_time", path, what)
     diffs = np.diff(times)
     if not np.allclose(diffs, step):
         row = int(np.flatnonzero(~np.isclose(diffs, step))[0])
@@ -96,7 +113,20 @@ def _demand(key: tuple[str, int, int], step: float) -> tuple[tuple[str, ...], np
     if not labels:
         msg = f"demand file `{path}` has no profile column besides `delta_time`; expected one column per household"
         raise DataFileError(msg)
-    table = np.column_stack([_numeric(frame, c, path, "demand") for c in labels])
+    foreign = [c for c in labels if c in TABLE_OF]
+    if foreign:
+        msg = (
+            f"demand file `{path}` has column `{foreign[0]}` of the {TABLE_OF[foreign[0]]} table; expected one column "
+            "of household demand (W) per profile: does `data.demand` name the right file?"
+        )
+        raise DataFileError(msg)
+    table = np.column_stack([_numeric(frame, c, path, "demand", "demand") for c in labels])
+    if table.max() < MIN_DEMAND_PEAK:
+        msg = (
+            f"demand file `{path}`: the largest demand of any column is {table.max():g}; expected W, which peak above "
+            f"{MIN_DEMAND_PEAK:g} W in a household (a demand in kW must be multiplied by 1000)"
+        )
+        raise DataFileError(msg)
     table.flags.writeable = False
     return labels, table
 
@@ -106,7 +136,7 @@ def _series(key: tuple[str, int, int], what: str, columns: tuple[str, ...], step
     path = Path(key[0])
     frame = _read(path, [*columns, "delta_time"], what)
     times = _check_step(frame, path, what, step)
-    out = [_numeric(frame, c, path, what) for c in columns]
+    out = [_numeric(frame, c, path, what, c) for c in columns]
     for a in (*out, times):
         a.flags.writeable = False
     return (*out, times)
@@ -126,15 +156,19 @@ def read_generation(path: Path, step: float = 3600.0) -> tuple[np.ndarray, np.nd
 def read_market(path: Path, step: float = 3600.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Buy (``ask``) and sell (``bid``) prices (EUR/Wh) and ``delta_time`` (s)."""
     ask, bid, times = _series(_key(path), "market", ("ask", "bid"), float(step))
+    if (ask < bid).any():
+        row = int(np.flatnonzero(ask < bid)[0])
+        msg = (
+            f"market file `{path}` row {row + 2}: `ask` (buy price, {ask[row]:g}) is below `bid` (sell price, "
+            f"{bid[row]:g}); expected ask >= bid: are the two columns swapped?"
+        )
+        raise DataFileError(msg)
     return ask, bid, times
 
 
 def read_temperature(path: Path, step: float = 86400.0) -> tuple[np.ndarray, np.ndarray]:
     """Daily ambient temperature (K) and ``delta_time`` (s)."""
     temp, times = _series(_key(path), "ambient temperature", ("temp_amb",), float(step))
-    if (temp < 150.0).any():
-        msg = f"ambient temperature file `{path}`: `temp_amb` must be in kelvin (found {temp.min():g})"
-        raise DataFileError(msg)
     return temp, times
 
 

@@ -20,14 +20,17 @@ from gym4real.core.errors import DataFileError
 
 #: Order of the parameters in every lookup result.
 PARAMETERS = ("r0", "r1", "c", "ocv")
+#: Range of the temperature axis (°C): a table in kelvin (273.15 higher) falls outside it.
+TEMP_RANGE_C = (-60.0, 100.0)
 
 
 def read_table(path: Path, inputs: tuple[str, str], output: str) -> dict[tuple[float, float], float]:
     """Read a ``<temp>,<soc>,<value>`` CSV into ``{(temp, soc): value}``.
 
     Raises:
-        DataFileError: The file is unreadable, lacks a column, holds a non-numeric or non-finite value,
-            or repeats a grid point.
+        DataFileError: The file is unreadable or not UTF-8, lacks a column, holds a non-numeric or
+            non-finite value, a temperature outside :data:`TEMP_RANGE_C` (°C), a SoC outside [0, 1] or a
+            parameter that is not positive, or repeats a grid point.
     """
     expected = [*inputs, output]
     try:
@@ -36,6 +39,9 @@ def read_table(path: Path, inputs: tuple[str, str], output: str) -> dict[tuple[f
     except OSError as exc:
         msg = f"cannot read lookup table `{path}`: {exc}"
         raise DataFileError(msg) from exc
+    except UnicodeDecodeError as exc:
+        msg = f"lookup table `{path}` is not UTF-8 text ({exc.reason} at byte {exc.start}); save it as a UTF-8 CSV"
+        raise DataFileError(msg) from None
     if not rows:
         msg = f"lookup table `{path}` is empty; expected a header with columns {expected}"
         raise DataFileError(msg)
@@ -57,6 +63,15 @@ def read_table(path: Path, inputs: tuple[str, str], output: str) -> dict[tuple[f
         if not all(map(math.isfinite, (t, s, v))):
             msg = f"lookup table `{path}` line {n}: non-finite value in {row}"
             raise DataFileError(msg)
+        lo, hi = TEMP_RANGE_C
+        for column, value, ok, wanted in (
+            (inputs[0], t, lo <= t <= hi, f"a temperature in °C within [{lo:g}, {hi:g}] (not kelvin)"),
+            (inputs[1], s, 0.0 <= s <= 1.0, "a state of charge in [0, 1] (not percent)"),
+            (output, v, v > 0.0, "a positive parameter (ohm, F or V)"),
+        ):
+            if not ok:
+                msg = f"lookup table `{path}` line {n}: column `{column}` holds {value:g}; expected {wanted}"
+                raise DataFileError(msg)
         if (t, s) in table:
             msg = f"lookup table `{path}` line {n}: grid point ({t}, {s}) appears twice"
             raise DataFileError(msg)

@@ -122,7 +122,9 @@ class OnnxDetector:
 
     Input ``input_tensor``: uint8 RGB (1, H, W, 3). Outputs: ``detection_boxes`` (1, K, 4) normalised
     (y_min, x_min, y_max, x_max) sorted by score (by name, else output index 1 as the reference reads it),
-    and ``detection_scores`` (1, K) if present.
+    and ``detection_scores`` (1, K) if present. The model's declared signature is checked when it is
+    loaded: a model of another kind (a classifier, a float input, channels first) is refused then, with
+    what it declares, rather than at the first frame.
 
     Args:
         path: The ``.onnx`` file.
@@ -147,6 +149,32 @@ class OnnxDetector:
         self.box_output = "detection_boxes" if "detection_boxes" in names else names[min(1, len(names) - 1)]
         self.score_output = "detection_scores" if "detection_scores" in names else None
         self.min_score = min_score
+        self._check_signature(path)
+
+    def _check_signature(self, path: Path) -> None:
+        """Refuse a model whose declared input or outputs do not have the TF-OD layout."""
+        inputs = self.session.get_inputs()
+        outputs = {o.name: o for o in self.session.get_outputs()}
+        problems = []
+        image = inputs[0]
+        if len(inputs) != 1 or image.type != "tensor(uint8)" or not _fits(image.shape, (1, None, None, 3)):
+            got = ", ".join(f"`{i.name}` {i.type} {i.shape}" for i in inputs)
+            problems.append(f"its input is {got}; expected one tensor(uint8) of shape (1, H, W, 3), an RGB image")
+        boxes = outputs[self.box_output]
+        if boxes.type != "tensor(float)" or not _fits(boxes.shape, (1, None, 4)):
+            problems.append(
+                f"its box output `{boxes.name}` is {boxes.type} {boxes.shape}; expected `detection_boxes`, "
+                "tensor(float) of shape (1, K, 4)"
+            )
+        if self.score_output and not _fits(outputs[self.score_output].shape, (1, None)):
+            problems.append(f"`detection_scores` has shape {outputs[self.score_output].shape}; expected (1, K)")
+        if problems:
+            msg = (
+                f"ONNX detector `{path}` is not an object detector with the TF Object-Detection layout: "
+                f"{'; '.join(problems)}. Fix: export the detector with that layout, or use "
+                '`detector="classical"`'
+            )
+            raise DataFileError(msg)
 
     def detect(self, rgb: np.ndarray) -> list[Detection]:
         """Boxes of the model, in its score order."""
@@ -162,6 +190,15 @@ class OnnxDetector:
             box = (int(x0 * w), int(y0 * h), int(x1 * w), int(y1 * h))
             out.append(Detection(box=box, centre=((box[0] + box[2]) / 2, (box[1] + box[3]) / 2), score=float(score)))
         return out
+
+
+def _fits(shape: list[int | str | None] | None, wanted: tuple[int | None, ...]) -> bool:
+    """Whether a declared ONNX shape can be ``wanted`` (None: any size; a symbolic or unknown dim fits anything)."""
+    if shape is None:
+        return True
+    if len(shape) != len(wanted):
+        return False
+    return all(w is None or not isinstance(d, int) or d == w for d, w in zip(shape, wanted, strict=True))
 
 
 def make_detector(spec: str, threshold: int, min_area: int, truth: Callable[[], np.ndarray]) -> Detector:

@@ -51,6 +51,30 @@ def _read_text(path: Path, what: str, *, closed: bool = True) -> str:
     return text
 
 
+def _mesh_bytes(path: Path, rel: str) -> bytes:
+    """A mesh file's bytes; an empty mesh (no byte, no vertex, no triangle) is named, not blamed on the MJCF."""
+    data = path.read_bytes()
+    problem = ""
+    if not data.strip():
+        problem = "is empty"
+    elif rel.endswith(".obj"):
+        vertices = sum(1 for line in data.splitlines() if line.startswith(b"v "))
+        if vertices < 4:
+            problem = f"holds {vertices} vertices (a mesh needs at least 4)"
+    elif rel.endswith(".stl"):
+        ascii_stl = data.lstrip().startswith(b"solid") and b"facet" in data
+        triangles = 1 if ascii_stl else int.from_bytes(data[80:84], "little") if len(data) >= 84 else 0
+        if not triangles:
+            problem = "holds no triangle"
+    if problem:
+        msg = (
+            f"RoboFeeder mesh file `{path}` (`{rel}`) {problem}; expected the registered STL/OBJ mesh. Fix: "
+            "replace it with the upstream file (`gym4real data fetch robofeeder`)"
+        )
+        raise DataFileError(msg)
+    return data
+
+
 def objects_xml(pattern: str, n_objects: int) -> str:
     """The reference's ``object_v2.xml`` with ``n_objects`` bodies, as a string."""
     if "<worldbody>" not in pattern:
@@ -72,7 +96,7 @@ def _compiled(paths: tuple[tuple[str, Path], ...], n_objects: int) -> mujoco.MjM
     pattern = _read_text(files[PATTERN_XML], "object pattern", closed=False)
     generated = objects_xml(pattern, n_objects)
     assets: dict[str, bytes] = {"object_v2.xml": generated.encode(), "box.xml": box.encode()}
-    by_name = {PurePosixPath(rel).name: path for rel, path in files.items() if rel.startswith("meshes/")}
+    by_name = {PurePosixPath(rel).name: (rel, path) for rel, path in files.items() if rel.startswith("meshes/")}
     for text, source in ((main, MAIN_XML), (box, BOX_XML), (generated, PATTERN_XML)):
         for name in _FILE_ATTR.findall(_COMMENT.sub("", text)):
             if name in assets:
@@ -80,7 +104,7 @@ def _compiled(paths: tuple[tuple[str, Path], ...], n_objects: int) -> mujoco.MjM
             if name not in by_name:
                 msg = f"`{source}` references `{name}`, which is not a registered RoboFeeder model file"
                 raise DataFileError(msg)
-            assets[name] = by_name[name].read_bytes()
+            assets[name] = _mesh_bytes(by_name[name][1], by_name[name][0])
     main = _MESHDIR.sub('meshdir=""', main, count=1)
     try:
         return mujoco.MjModel.from_xml_string(main, assets=assets)

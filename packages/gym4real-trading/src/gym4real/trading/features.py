@@ -95,6 +95,38 @@ def _key(cfg: TradingConfig, name: SplitName, proc: processing.Processed) -> str
 
 _memo: dict[str, SplitData] = {}
 
+#: Weekdays without quotes tolerated at either end of a split (holidays such as 1 January, Good Friday).
+UNCOVERED_WEEKDAYS = 2
+
+
+def check_coverage(name: SplitName, lo: dt.date, hi: dt.date, proc: processing.Processed, where: str) -> None:
+    """Refuse quotes that start after or end before the split, beyond :data:`UNCOVERED_WEEKDAYS` weekdays.
+
+    Args:
+        name: The split.
+        lo: Its first date.
+        hi: Its last date.
+        proc: The processed quotes of its source.
+        where: The source, for the message (a path, a dataset name or a HistData kind).
+
+    Raises:
+        DataFileError: Naming the source, the split, the weekdays without quotes and the fix.
+    """
+    first = proc.first_day
+    last = first + dt.timedelta(days=proc.n_days - 1)
+    for gap_lo, gap_hi, edge, bound in (
+        (lo, min(hi, first - dt.timedelta(days=1)), f"start on {first}", "start"),
+        (max(lo, last + dt.timedelta(days=1)), hi, f"end on {last}", "end"),
+    ):
+        missing = int(np.busday_count(gap_lo, gap_hi + dt.timedelta(days=1))) if gap_lo <= gap_hi else 0
+        if missing > UNCOVERED_WEEKDAYS:
+            msg = (
+                f"the quotes of {where} {edge}, but split `{name}` runs {lo} .. {hi}: {missing} weekdays "
+                f"({gap_lo} .. {gap_hi}) have no quotes. Fix: give quotes covering the split, or change "
+                f"`splits.{name}.{bound}` (or its `years`) to the period of the data"
+            )
+            raise DataFileError(msg)
+
 
 def split_data(cfg: TradingConfig, name: SplitName | None = None) -> SplitData:
     """The kept trading days of a split with their prices and unscaled changes (memoised per config).
@@ -106,7 +138,10 @@ def split_data(cfg: TradingConfig, name: SplitName | None = None) -> SplitData:
     section = cfg.split_section(name)
     lo, hi = section.bounds()
     years = section.years or list(range(lo.year, hi.year + 1))
-    proc = processing.load(cfg.split_source(name), years, _processing(cfg), cfg.data_dir)
+    source = cfg.split_source(name)
+    proc = processing.load(source, years, _processing(cfg), cfg.data_dir)
+    where = f"`{source.path}`" if source.path else f"dataset `{source.dataset}`" if source.dataset else source.kind
+    check_coverage(name, lo, hi, proc, where)
     key = _key(cfg, name, proc)
     if key not in _memo:
         _memo[key] = _build(cfg, name, proc)

@@ -236,7 +236,8 @@ def source_files(source: SourceSection, years: Sequence[int], data_dir: str | Pa
         if not path.is_absolute() and data_dir and (Path(data_dir) / path).is_file():
             path = Path(data_dir) / path
         if not path.is_file():
-            raise DataFileError(f"quote file `{path}` (`source.path`) not found")
+            problem = "is a folder, not a CSV file" if path.is_dir() else "not found"
+            raise DataFileError(f"quote file `{path}` (`source.path`) {problem}")
         return [(path, file_sha256(path))]
     folders = [Path(source.path).expanduser()] if source.path else histdata_folders(data_dir)
     problems = []

@@ -17,8 +17,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import yaml
 
+from gym4real.core.config import read_yaml
 from gym4real.core.datasets import resolve
 from gym4real.core.errors import DataFileError
 
@@ -71,11 +71,7 @@ def _read_matrix(path: Path, index_column: bool) -> tuple[np.ndarray, tuple[int,
 
 
 def _read_catalogue(path: Path) -> dict[str, tuple[str, ...]]:
-    try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except (OSError, yaml.YAMLError) as exc:
-        raise DataFileError(f"demand catalogue `{path}` is unreadable: {exc}") from None
-    train = data.get("train") if isinstance(data, dict) else None
+    train = read_yaml(path, "demand catalogue", DataFileError).get("train")
     if not isinstance(train, dict) or any(not isinstance(train.get(b), list) or not train[b] for b in BUCKETS):
         msg = f"demand catalogue `{path}` must map `train` to non-empty file lists for the buckets {list(BUCKETS)}"
         raise DataFileError(msg)

@@ -455,7 +455,8 @@ class Engine:
         self._hyd_open = False
         self._buffers: dict[tuple[str, int], tuple[Any, np.ndarray]] = {}
         if not self.path.is_file():
-            raise DataFileError(f"network file `{self.path}` does not exist; pass an EPANET `.inp` file as `network`")
+            problem = "is a folder, not a file" if self.path.is_dir() else "does not exist"
+            raise DataFileError(f"network file `{self.path}` {problem}; pass an EPANET `.inp` file as `network`")
         self._tmp: str | None = tempfile.mkdtemp(prefix="gym4real-wds-")
         report = Path(self._tmp) / "epanet.rpt"
         self.ph = self.tk.createproject()
