@@ -18,7 +18,7 @@ wrong with it and what was expected:
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Any, Literal, TypeVar
 
 import numpy as np
 from gymnasium import spaces
@@ -30,6 +30,14 @@ Outside = Literal["raise", "clip", "keep"]
 
 _INTEGER_KINDS = "iu"
 _REAL_KINDS = "iuf"
+_S = TypeVar("_S", spaces.Box, spaces.Discrete)
+
+
+def _kind(space: spaces.Space[Any], kind: type[_S]) -> _S:
+    """The space as ``kind``; another kind of space is the env's bug, not the agent's."""
+    if not isinstance(space, kind):
+        raise TypeError(f"this check is for a {kind.__name__} action space, not {space}")
+    return space
 
 
 def _refuse(action: Any, space: spaces.Space[Any], problem: str, expected: str, copies: str = "") -> ActionError:
@@ -59,7 +67,7 @@ def _as_array(action: Any, space: spaces.Space[Any], expected: str) -> np.ndarra
         raise _refuse(action, space, f"it is not an array of numbers ({exc})", expected) from None
 
 
-def discrete_action(action: Any, space: spaces.Discrete, meaning: str) -> int:
+def discrete_action(action: Any, space: spaces.Space[Any], meaning: str) -> int:
     """The action as an ``int`` of ``space``, or :class:`ActionError`.
 
     Args:
@@ -67,25 +75,26 @@ def discrete_action(action: Any, space: spaces.Discrete, meaning: str) -> int:
         space: The env's ``Discrete`` action space.
         meaning: What the values mean, for the message (``"0 (down), 1 (open) or 2 (up)"``).
     """
-    low = int(space.start)
-    high = low + int(space.n) - 1
+    space = _kind(space, spaces.Discrete)
     if type(action) is int or (isinstance(action, np.integer) and not isinstance(action, np.bool_)):
         value = int(action)
     else:
         arr = _as_array(action, space, meaning)
         if isinstance(action, bool) or arr.dtype.kind not in _INTEGER_KINDS:
-            problem = "it is not an integer" if arr.dtype.kind in "f" else _kind_problem(arr)
+            problem = "it is not an integer" if arr.dtype.kind == "f" else _kind_problem(arr)
             raise _refuse(action, space, problem, f"one integer: {meaning}")
         if arr.size != 1:
             raise _refuse(action, space, f"it holds {arr.size} values", f"one integer: {meaning}")
         value = int(arr.reshape(-1)[0])
-    if not low <= value <= high:
-        raise _refuse(action, space, f"{value} is outside [{low}, {high}]", meaning)
+    low = int(space.start)
+    if not low <= value < low + int(space.n):
+        raise _refuse(action, space, f"{value} is outside [{low}, {low + int(space.n) - 1}]", meaning)
     return value
 
 
-def discrete_actions(actions: Any, space: spaces.Discrete, num_envs: int, meaning: str) -> np.ndarray:
+def discrete_actions(actions: Any, space: spaces.Space[Any], num_envs: int, meaning: str) -> np.ndarray:
     """The actions of ``num_envs`` copies as an ``int64`` array ``(num_envs,)``, or :class:`ActionError`."""
+    space = _kind(space, spaces.Discrete)
     low = int(space.start)
     high = low + int(space.n) - 1
     expected = f"{num_envs} integers, one per copy: {meaning}"
@@ -96,10 +105,10 @@ def discrete_actions(actions: Any, space: spaces.Discrete, num_envs: int, meanin
     if arr.size != num_envs or _squeezed(arr.shape) != _squeezed((num_envs,)):
         raise _refuse(actions, space, f"shape {arr.shape}, not ({num_envs},)", expected)
     values = arr.reshape(num_envs).astype(np.int64)
-    bad = np.flatnonzero((values < low) | (values > high))
-    if bad.size:
+    bad = (values < low) | (values > high)
+    if bad.any():
         problem = f"{values[bad].tolist()} outside [{low}, {high}]"
-        raise _refuse(actions, space, problem, meaning, copies=f" (copies {bad.tolist()})")
+        raise _refuse(actions, space, problem, meaning, copies=f" (copies {np.flatnonzero(bad).tolist()})")
     return values
 
 
@@ -107,18 +116,37 @@ def _squeezed(shape: tuple[int, ...]) -> tuple[int, ...]:
     return tuple(d for d in shape if d != 1)
 
 
-def _real(action: Any, space: spaces.Box, shape: tuple[int, ...], expected: str) -> np.ndarray:
-    """``action`` as a float64 copy of ``shape``: real, finite numbers only."""
-    arr = _as_array(action, space, expected)
+def _checked_box(
+    action: Any,
+    box: spaces.Box,
+    shape: tuple[int, ...],
+    expected: str,
+    meaning: str,
+    outside: Outside,
+    tolerance: float,
+    fix: str,
+) -> np.ndarray:
+    """``action`` as a float64 copy of ``shape``: real, finite, and inside the box as ``outside`` says."""
+    arr = _as_array(action, box, expected)
     if arr.dtype.kind not in _REAL_KINDS:
-        raise _refuse(action, space, _kind_problem(arr), expected)
+        raise _refuse(action, box, _kind_problem(arr), expected)
     if arr.shape != shape and (arr.size != int(np.prod(shape)) or _squeezed(arr.shape) != _squeezed(shape)):
-        raise _refuse(action, space, f"shape {arr.shape}, not {shape}", expected)
+        raise _refuse(action, box, f"shape {arr.shape}, not {shape}", expected)
     a = np.array(arr, dtype=np.float64).reshape(shape)  # a copy: the caller's array is never changed
+    low, high = box.low, box.high
+    if ((a >= low) & (a <= high)).all():  # the usual case; False with a NaN
+        return a
     finite = np.isfinite(a)
     if not finite.all():
-        raise _refuse(action, space, "NaN and infinities are not actions", expected, _copies(~finite, space))
-    return a
+        raise _refuse(action, box, "NaN and infinities are not actions", expected, _copies(~finite, box))
+    if outside == "keep":
+        return a
+    if outside == "raise":
+        beyond = (a < low - tolerance) | (a > high + tolerance)
+        if beyond.any():
+            problem = f"it is outside {_describe(box)}"
+            raise _refuse(action, box, problem, f"{meaning}; {fix}", _copies(beyond, box))
+    return np.clip(a, low, high)
 
 
 def _copies(bad: np.ndarray, space: spaces.Box) -> str:
@@ -126,20 +154,6 @@ def _copies(bad: np.ndarray, space: spaces.Box) -> str:
     if bad.ndim == len(space.shape):
         return ""
     return f" (copies {np.flatnonzero(bad.reshape(len(bad), -1).any(axis=1)).tolist()})"
-
-
-def _bounds(
-    a: np.ndarray, action: Any, space: spaces.Box, meaning: str, outside: Outside, tolerance: float, fix: str
-) -> np.ndarray:
-    low, high = space.low.astype(np.float64), space.high.astype(np.float64)
-    if outside == "keep" or ((a >= low) & (a <= high)).all():
-        return a
-    if outside == "raise":
-        beyond = (a < low - tolerance) | (a > high + tolerance)
-        if beyond.any():
-            problem = f"it is outside {_describe(space)}"
-            raise _refuse(action, space, problem, f"{meaning}; {fix}", _copies(beyond, space))
-    return np.clip(a, low, high)
 
 
 def _describe(space: spaces.Box) -> str:
@@ -151,7 +165,7 @@ def _describe(space: spaces.Box) -> str:
 
 def box_action(
     action: Any,
-    space: spaces.Box,
+    space: spaces.Space[Any],
     meaning: str,
     *,
     outside: Outside = "raise",
@@ -168,13 +182,13 @@ def box_action(
         tolerance: How far beyond the bounds a value is still accepted (and clipped to the bound).
         fix: What to do about an action outside the bounds (with ``outside="raise"``).
     """
-    a = _real(action, space, space.shape, meaning)
-    return _bounds(a, action, space, meaning, outside, tolerance, fix)
+    box = _kind(space, spaces.Box)
+    return _checked_box(action, box, box.shape, meaning, meaning, outside, tolerance, fix)
 
 
 def box_actions(
     actions: Any,
-    space: spaces.Box,
+    space: spaces.Space[Any],
     num_envs: int,
     meaning: str,
     *,
@@ -183,6 +197,6 @@ def box_actions(
     fix: str = "clip them into the box (`np.clip(a, low, high)`)",
 ) -> np.ndarray:
     """The actions of ``num_envs`` copies as float64 ``(num_envs, *space.shape)``, checked as :func:`box_action`."""
-    shape = (num_envs, *space.shape)
-    a = _real(actions, space, shape, f"{num_envs} actions, one per copy: {meaning}")
-    return _bounds(a, actions, space, meaning, outside, tolerance, fix)
+    box = _kind(space, spaces.Box)
+    expected = f"{num_envs} actions, one per copy: {meaning}"
+    return _checked_box(actions, box, (num_envs, *box.shape), expected, meaning, outside, tolerance, fix)

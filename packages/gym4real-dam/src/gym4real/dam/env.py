@@ -545,9 +545,10 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
 
     def _decision(self, action: Any) -> float:
         """The action as a float inside the box (clipped, or ActionError, as configured)."""
-        outside = "keep" if self.config.invalid_action == "clip" else "raise"
+        keep = self.config.invalid_action == "clip"  # the env clips, after recording the requested release
         fix = 'clip it, or set `invalid_action="clip"`'
-        a = self._raw_action = float(box_action(action, self.action_space, RELEASE, outside=outside, fix=fix)[0])
+        a = box_action(action, self.action_space, RELEASE, outside="keep" if keep else "raise", fix=fix)[0]
+        a = self._raw_action = float(a)
         return self._a_low if a < self._a_low else self._a_high if a > self._a_high else a
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:

@@ -247,9 +247,10 @@ class DamVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
 
     def _decisions(self, actions: Any) -> np.ndarray:
         """The actions as float64 releases inside the box (clipped, or ValueError, as configured)."""
-        outside = "clip" if self.config.invalid_action == "clip" else "raise"
+        clip = self.config.invalid_action == "clip"
         fix = 'clip them, or set `invalid_action="clip"`'
-        a = box_actions(actions, self.single_action_space, self.num_envs, RELEASE, outside=outside, fix=fix)
+        space, n = self.single_action_space, self.num_envs
+        a = box_actions(actions, space, n, RELEASE, outside="clip" if clip else "raise", fix=fix)
         return a.reshape(self.num_envs)
 
     def _integrate(

@@ -257,8 +257,10 @@ class WDSEnv(gym.Env[np.ndarray, np.int64]):
         self._n_tanks, self._n_obs_junctions = n_t, n_j
         self.observation_space = spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
         self.action_space = spaces.Discrete(2**self._n_pumps)
-        p = self._n_pumps
-        self._actions = f"0..{2**p - 1}, whose {p} bits (most significant first) open (1) or close (0) the pumps"
+        self._actions = (
+            f"0..{2**self._n_pumps - 1}, whose {self._n_pumps} bits (most significant first) open (1) or close (0) "
+            "the pumps"
+        )
         self.observation_names = (
             *net.tank_ids,
             *(net.junction_ids[i] for i in observed),
