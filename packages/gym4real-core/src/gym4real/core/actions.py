@@ -8,9 +8,10 @@ wrong with it and what was expected:
 * a ``Discrete`` action is one integer (a Python ``int``, a numpy integer, or an integer array holding
   exactly one value) inside the space; floats (even ``1.0``), booleans, strings, complex numbers and
   arrays of several values are refused;
-* a ``Box`` action is an array of real numbers (integer or float dtype) of the space's shape (extra
-  axes of length one are ignored: ``(1, 3)`` for ``(3,)``); strings, booleans, complex numbers, object
-  arrays and non-finite values are refused. What happens outside the bounds is the env's definition:
+* a ``Box`` action (:func:`box_action`; :func:`box_value` for a box of one element, as a float) is an
+  array of real numbers (integer or float dtype) of the space's shape (extra axes of length one are
+  ignored: ``(1, 3)`` for ``(3,)``); strings, booleans, complex numbers, object arrays and non-finite
+  values are refused. What happens outside the bounds is the env's definition:
   ``outside="raise"`` refuses it, ``"clip"`` clips it into the box, and ``"keep"`` returns it as it is
   for the env to clip and report itself; a ``tolerance`` lets values that far outside through, clipped
   to the bound (float rounding of an action computed at the bound).
@@ -184,6 +185,24 @@ def box_action(
     """
     box = _kind(space, spaces.Box)
     return _checked_box(action, box, box.shape, meaning, meaning, outside, tolerance, fix)
+
+
+def box_value(
+    action: Any,
+    space: spaces.Space[Any],
+    meaning: str,
+    *,
+    outside: Outside = "raise",
+    tolerance: float = 0.0,
+    fix: str = "clip it into the box (`np.clip(a, low, high)`)",
+) -> float:
+    """:func:`box_action` for a ``Box`` of one element, as a float (a float array inside the box returns at once)."""
+    box = _kind(space, spaces.Box)
+    if type(action) is np.ndarray and action.dtype.kind == "f" and action.size == 1 and box.shape == (1,):
+        x = float(action.item())
+        if float(box.low[0]) <= x <= float(box.high[0]):  # the usual case; False with a NaN
+            return x
+    return float(_checked_box(action, box, box.shape, meaning, meaning, outside, tolerance, fix)[0])
 
 
 def box_actions(

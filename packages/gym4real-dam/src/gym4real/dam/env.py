@@ -13,7 +13,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from gym4real.core.actions import box_action
+from gym4real.core.actions import box_value
 from gym4real.core.datasets import resolve
 from gym4real.core.errors import ConfigError, DataFileError
 from gym4real.core.perturbation import check_scales
@@ -547,8 +547,8 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
         """The action as a float inside the box (clipped, or ActionError, as configured)."""
         keep = self.config.invalid_action == "clip"  # the env clips, after recording the requested release
         fix = 'clip it, or set `invalid_action="clip"`'
-        a = box_action(action, self.action_space, RELEASE, outside="keep" if keep else "raise", fix=fix)[0]
-        a = self._raw_action = float(a)
+        a = box_value(action, self.action_space, RELEASE, outside="keep" if keep else "raise", fix=fix)
+        self._raw_action = a
         return self._a_low if a < self._a_low else self._a_high if a > self._a_high else a
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:

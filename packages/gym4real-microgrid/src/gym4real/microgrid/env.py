@@ -14,7 +14,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from gym4real.core.actions import box_action
+from gym4real.core.actions import box_value
 from gym4real.core.errors import DataFileError
 from gym4real.core.perturbation import check_scales
 from gym4real.microgrid.battery import BatteryParams, BatteryTwin, TwinOptions, load_battery
@@ -487,7 +487,7 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Route the fraction ``action`` of the net power to the battery for ``decision_interval`` hours."""
-        a = float(box_action(action, self.action_space, ACTIONS, tolerance=ACTION_TOLERANCE)[0])
+        a = box_value(action, self.action_space, ACTIONS, tolerance=ACTION_TOLERANCE)
 
         w, bat = self.world, self.battery
         dt = self._step_s
