@@ -51,7 +51,8 @@ def tick_dir(tmp_path: Path) -> Path:
     jan += tick_lines(GAP_DAY, skip=range(12 * 60, 12 * 60 + 10))  # 10-minute gap > ffill_limit 5
     jan += tick_lines("20220105")
     for month in range(1, 13):
-        lines = {1: jan, 7: tick_lines("20220705")}.get(month, [f"2022{month:02d}06 030000000,1.1,1.1002,0"])
+        day = 30 if month == 12 else 6  # a quote on the last weekday of the year: the files cover the split
+        lines = {1: jan, 7: tick_lines("20220705")}.get(month, [f"2022{month:02d}{day:02d} 030000000,1.1,1.1002,0"])
         if month == 3:  # 02:30 of 13 March 2022 does not exist in US/Eastern; HistData has no DST
             lines = ["20220313 023000000,1.100000,1.100200,0", *lines]
         (folder / f"DAT_ASCII_EURUSD_T_2022{month:02d}.csv").write_text("\n".join(lines) + "\n")
@@ -162,6 +163,7 @@ def test_upstream_fills_across_sessions(tmp_path: Path, cache: Path) -> None:
     for day, start in (("20220103", 7 * 60), ("20220104", 8 * 60 + 3)):  # the 2nd day opens 3 minutes late
         for minute in range(start, 18 * 60):
             lines.append(f"{day} {minute // 60:02d}{minute % 60:02d}00;1;1;1;{price(day, minute):.6f};0")
+    lines.append("20221230 030000;1;1;1;1.1;0")  # the last weekday of the year: the file covers the split
     (folder / "DAT_ASCII_EURUSD_M1_2022.csv").write_text("\n".join(lines) + "\n")
     up = paper_env(folder, fidelity="upstream", kind="histdata_m1")
     fixed = paper_env(folder, kind="histdata_m1")
