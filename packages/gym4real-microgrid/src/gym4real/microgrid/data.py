@@ -26,6 +26,7 @@ TEST_DEMAND = "demand/test"
 class TrainingOnTestDataWarning(UserWarning):
     """Episodes are drawn at random (as for training) from the households the paper evaluates on."""
 
+
 #: Unit and plausible range ``(low, high, unit)`` of every value column (demand: each household column).
 UNITS: dict[str, tuple[float, float, str]] = {
     "demand": (0.0, 100_000.0, "W per household"),
