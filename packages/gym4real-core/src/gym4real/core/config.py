@@ -26,6 +26,8 @@ Fidelity = Literal["corrected", "upstream"]
 MAX_YAML_VALUES = 100_000
 #: Most characters of an input value quoted in an error message.
 MAX_QUOTED = 80
+#: A path in a fix is quoted whole up to this length (Linux's PATH_MAX), so that the fix can be pasted.
+MAX_PATH_QUOTED = 4096
 #: Most validation errors listed in one message.
 MAX_LISTED = 10
 
@@ -185,7 +187,8 @@ class EnvConfig(BaseModel):
             text = str(name) if isinstance(name, (str, Path)) else ""
             if "/" in text or "\\" in text or text.endswith((".yaml", ".yml")):
                 file = text if text.endswith((".yaml", ".yml")) else f"{text}.yaml"
-                msg += f"; a preset is a name: pass a YAML file as `config={quote(file)}`"
+                shown_file = repr(file) if len(file) <= MAX_PATH_QUOTED else "PATH.yaml"
+                msg += f"; a preset is a name: pass a YAML file as `config={shown_file}`"
             raise ConfigError(msg)
         return read_yaml(resources.files(cls.presets_package) / "presets" / f"{name}.yaml", "preset")
 
