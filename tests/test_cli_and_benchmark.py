@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -107,10 +108,29 @@ def test_cli_data_list_and_verify(capsys: pytest.CaptureFixture[str]) -> None:
         pytest.skip("no installed domain registers data")
     assert main(["data", "list"]) == 0
     absent = _absent()
+    listed = capsys.readouterr().out.splitlines()
+    assert listed[0].split() == ["name", "size", "status", "found", "in"]
+    assert len(listed) == 1 + len(registry().datasets) + 2 + bool(absent)  # header, rows, searched, summary, fix
     assert main(["data", "verify"]) == (2 if absent else 0)
-    out = capsys.readouterr().out
-    assert out.count("ok   ") == len(registry().datasets) - absent
-    assert out.count("FAIL ") == absent
+    out, err = capsys.readouterr()
+    rows = out.splitlines()[1 : 1 + len(registry().datasets)]
+    assert sum(" ok " in r for r in rows) == len(registry().datasets) - absent
+    assert sum(" missing " in r for r in rows) == absent
+    assert (f"{absent} missing" in err) if absent else err == ""
+
+
+def test_a_missing_data_file_is_reported_below_the_progress_bar(tmp_path: Path) -> None:
+    if "gym4real/dam-v0" not in gym4real.list_envs():
+        pytest.skip("gym4real-dam is not installed")
+    env = {k: v for k, v in os.environ.items() if k != "GYM4REAL_DATA_DIR"}
+    env |= {"GYM4REAL_CACHE_DIR": str(tmp_path), "GYM4REAL_OFFLINE": "1"}
+    cmd = [sys.executable, "-m", "gym4real.core.cli", "bench", "gym4real/dam-v0", "--episodes", "1"]
+    run = subprocess.run(cmd, capture_output=True, text=True, env=env, check=False)
+    assert run.returncode == 2
+    assert "episode/s]" in run.stderr  # the progress bar was drawn
+    [error] = [line for line in run.stderr.splitlines() if "gym4real: error:" in line]
+    assert error.startswith("gym4real: error: data file `dam/"), run.stderr
+    assert "GYM4REAL_DATA_DIR (not set)" in error and "github.com/Daveonwave/gym4ReaL at commit 774d5ce" in error
 
 
 def _absent() -> int:

@@ -2,6 +2,7 @@ from __future__ import annotations
 
 import hashlib
 import http.server
+import re
 import threading
 from collections.abc import Iterator
 from functools import partial
@@ -10,7 +11,8 @@ from pathlib import Path
 import pytest
 
 from gym4real.core import datasets
-from gym4real.core.errors import DataFileError
+from gym4real.core.cli import main
+from gym4real.core.errors import DataFileError, DataUnreachableError
 from gym4real.core.registry import Registry
 from gym4real.core.specs import DatasetSpec
 
@@ -125,3 +127,92 @@ def test_unknown_dataset_lists_known(fake_registry) -> None:
     add(fake_registry, "http://127.0.0.1:9/none")
     with pytest.raises(DataFileError, match="demo/file"):
         datasets.resolve("demo/nope")
+
+
+def test_an_unreachable_host_names_the_data_folder_and_no_unset_variable(fake_registry) -> None:
+    add(fake_registry, "http://127.0.0.1:9/file.csv")  # nothing listens on the discard port: connection refused
+    with pytest.raises(DataUnreachableError) as exc:
+        datasets.resolve("demo/file")
+    msg = str(exc.value)
+    assert exc.value.host == "127.0.0.1" and "127.0.0.1 cannot be reached" in msg, msg
+    assert "GYM4REAL_DATA_DIR (not set)" in msg and "Fix: set GYM4REAL_DATA_DIR" in msg, msg
+    assert "gym4real data fetch" not in msg and "Max retries" not in msg, msg  # no retry from here can help
+
+
+def test_the_upstream_data_folder_is_named_with_its_repository_and_commit() -> None:
+    commit = "774d5ceb1c218e09e5c6458ead7d4b0b10e2d8ac"
+    raw = f"https://raw.githubusercontent.com/Daveonwave/gym4ReaL/{commit}/gym4real"
+    in_data = DatasetSpec(name="dam/mef", path="dam/MEF.csv", sha256=SHA, url=f"{raw}/data/dam/MEF.csv")
+    elsewhere = DatasetSpec(name="mg/pack", path="mg/battery/pack.yaml", sha256=SHA, url=f"{raw}/envs/pack.yaml")
+    assert (
+        datasets.upstream_folder(in_data)
+        == "the folder `gym4real/data` of github.com/Daveonwave/gym4ReaL at commit 774d5ce"
+    )
+    assert datasets.upstream_folder(elsewhere) is None
+    assert datasets.where_to_get(elsewhere) == f"upstream: {raw}/envs/pack.yaml"
+
+
+def table_rows(out: str) -> dict[str, list[str]]:
+    """The rows of the table that starts ``out`` (cells two or more spaces apart): name -> [size, status, found in]."""
+    header, *lines = out.splitlines()
+    assert re.split(r"\s{2,}", header) == ["name", "size", "status", "found in"], header
+    rows = {}
+    for line in lines[: lines.index(next(x for x in lines if x.startswith("searched:")))]:
+        name, *cells = re.split(r"\s{2,}", line.strip())
+        rows[name] = cells
+    return rows
+
+
+def two_files(reg: dict[str, DatasetSpec], url: str, monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    """``demo/a`` in GYM4REAL_DATA_DIR, ``demo/b`` and ``demo/c`` nowhere; all three at ``url``."""
+    for key in "abc":
+        reg[f"demo/{key}"] = DatasetSpec(name=f"demo/{key}", path=f"demo/{key}.csv", sha256=SHA, url=f"{url}/{key}")
+    (tmp_path / "data" / "demo").mkdir(parents=True)
+    (tmp_path / "data" / "demo" / "a.csv").write_bytes(CONTENT)
+    monkeypatch.setenv("GYM4REAL_DATA_DIR", str(tmp_path / "data"))
+
+
+def test_data_list_is_one_table_with_sizes_and_a_summary(fake_registry, tmp_path, monkeypatch, capsys) -> None:
+    two_files(fake_registry, "http://127.0.0.1:9", monkeypatch, tmp_path)
+    assert main(["data", "list"]) == 0
+    out = capsys.readouterr().out
+    lines = out.splitlines()
+    assert table_rows(out) == {
+        "demo/a": ["17 B", "present", "GYM4REAL_DATA_DIR"],
+        "demo/b": ["-", "missing", "-"],
+        "demo/c": ["-", "missing", "-"],
+    }
+    assert f"GYM4REAL_DATA_DIR = {tmp_path / 'data'}" in lines[4]
+    assert lines[5] == "3 data files: 1 here (17 B), 2 missing (demo/b, demo/c)"
+    assert lines[6].startswith("Fix: set GYM4REAL_DATA_DIR") and "`gym4real data fetch demo`" in lines[6]
+    assert max(len(line) for line in lines[:4]) < 120  # the table
+
+
+def test_verify_does_not_blame_an_offline_switch_that_is_not_set(fake_registry, tmp_path, monkeypatch, capsys) -> None:
+    two_files(fake_registry, "http://127.0.0.1:9", monkeypatch, tmp_path)
+    (tmp_path / "data" / "demo" / "a.csv").write_bytes(b"other")
+    assert main(["data", "verify"]) == 2
+    out, err = capsys.readouterr()
+    assert table_rows(out)["demo/a"] == ["5 B", "corrupt", "GYM4REAL_DATA_DIR"]
+    assert "GYM4REAL_OFFLINE" not in out + err
+    assert err.startswith("gym4real: error: 3 data files: 1 here (5 B), 1 corrupt (demo/a), 2 missing"), err
+    assert "replace `demo/a.csv` in GYM4REAL_DATA_DIR with the upstream file http://127.0.0.1:9/a" in err
+
+
+def test_fetch_stops_asking_a_host_that_cannot_be_reached(fake_registry, tmp_path, monkeypatch, capsys) -> None:
+    two_files(fake_registry, "http://127.0.0.1:9", monkeypatch, tmp_path)
+    tried = []
+    download = datasets._download
+    monkeypatch.setattr(
+        datasets, "_download", lambda spec, deadline: tried.append(spec.name) or download(spec, deadline)
+    )
+    assert main(["data", "fetch"]) == 2
+    out, err = capsys.readouterr()
+    assert tried == ["demo/b"]
+    assert table_rows(out) == {
+        "demo/a": ["17 B", "ok", "GYM4REAL_DATA_DIR"],
+        "demo/b": ["-", "failed", "-"],
+        "demo/c": ["-", "skipped", "-"],
+    }
+    assert "127.0.0.1 cannot be reached (NewConnectionError): no further file was asked of it" in err, err
+    assert "gym4real data fetch" not in err, err  # it never suggests itself for a network failure

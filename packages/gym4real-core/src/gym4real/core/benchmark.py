@@ -211,25 +211,27 @@ def benchmark(
         from tqdm.auto import tqdm
 
         bar = tqdm(total=len(policies) * len(plan), desc=env_id, unit="episode")
-    for ref in policies:
-        name = ref if isinstance(ref, str) else getattr(ref, "__name__", type(ref).__name__)
-        env = gym.make(env_id, **kwargs)
-        try:
-            policy = make_policy(env_id, ref, env)
-            runs = []
-            for ep in plan:
-                runs.append(run_episode(env, policy, ep.get("seed"), ep.get("options"), final_keys))
-                if bar is not None:
-                    bar.update()
-        finally:
-            env.close()
-        result.rewards[name] = [r["rewards"] for r in runs]
-        result.returns[name] = [float(r["rewards"].sum()) for r in runs]
-        keys = sorted({k for r in runs for k in r["components"]})
-        result.components[name] = {k: [r["components"].get(k, 0.0) for r in runs] for k in keys}
-        result.final_info[name] = {k: [r["final"][k] for r in runs if k in r["final"]] for k in final_keys}
-    if bar is not None:
-        bar.close()
+    try:
+        for ref in policies:
+            name = ref if isinstance(ref, str) else getattr(ref, "__name__", type(ref).__name__)
+            env = gym.make(env_id, **kwargs)
+            try:
+                policy = make_policy(env_id, ref, env)
+                runs = []
+                for ep in plan:
+                    runs.append(run_episode(env, policy, ep.get("seed"), ep.get("options"), final_keys))
+                    if bar is not None:
+                        bar.update()
+            finally:
+                env.close()
+            result.rewards[name] = [r["rewards"] for r in runs]
+            result.returns[name] = [float(r["rewards"].sum()) for r in runs]
+            keys = sorted({k for r in runs for k in r["components"]})
+            result.components[name] = {k: [r["components"].get(k, 0.0) for r in runs] for k in keys}
+            result.final_info[name] = {k: [r["final"][k] for r in runs if k in r["final"]] for k in final_keys}
+    finally:  # an error (a missing data file) is printed below the bar, not inside it
+        if bar is not None:
+            bar.close()
     if out is not None:
         result.save(out)
     return result

@@ -102,33 +102,12 @@ def _add_record(sub: Any) -> None:
 
 
 def _cmd_data(args: argparse.Namespace) -> None:
-    from gym4real.core import datasets
-    from gym4real.core.registry import registry
+    from gym4real.core import data_command
 
     if args.years:
         _fetch_years(args)
         return
-    specs = [
-        s
-        for n, s in sorted(registry().datasets.items())
-        if not args.names or any(n == k or n.startswith(k.rstrip("/") + "/") for k in args.names)
-    ]
-    if args.names and not specs:
-        raise Gym4RealError(f"no dataset matches {args.names}; see `gym4real data list`")
-    failed = []
-    for spec in specs:
-        if args.action == "list":
-            print(f"{spec.name:40s} {spec.path:60s} {spec.licence}")
-            continue
-        try:
-            path = datasets.resolve(spec.name, download=args.action == "fetch")
-        except Gym4RealError as exc:
-            failed.append(spec.name)
-            print(f"FAIL {spec.name:40s} {' '.join(str(exc).split())}")
-        else:
-            print(f"ok   {spec.name:40s} {path}")
-    if failed:
-        raise Gym4RealError(f"{len(failed)} of {len(specs)} data files unavailable: {', '.join(failed)}")
+    data_command.run(args.action, args.names, args.urls)
 
 
 def _fetch_years(args: argparse.Namespace) -> None:
@@ -219,6 +198,7 @@ def _parser() -> argparse.ArgumentParser:
     data.add_argument("action", choices=["list", "fetch", "verify"])
     data.add_argument("names", nargs="*", help="domains or dataset names (default: all)")
     data.add_argument("--years", nargs="+", type=int, help="years to download from a domain's own source (trading)")
+    data.add_argument("--urls", action="store_true", help="add each file's path and upstream address to the table")
     data.set_defaults(run=_cmd_data)
 
     train = sub.add_parser("train", help="train an RL agent with a registered preset or a YAML preset file")

@@ -12,17 +12,22 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
+import logging
 import math
 import os
+import re
 import shutil
 import time
 import uuid
+from collections.abc import Iterator
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+from urllib.parse import urlsplit
 
 import platformdirs
 
-from gym4real.core.errors import DataFileError
+from gym4real.core.errors import DataFileError, DataUnreachableError
 from gym4real.core.registry import registry
 from gym4real.core.specs import DatasetSpec
 
@@ -68,23 +73,80 @@ def dataset(name: str) -> DatasetSpec:
     return datasets[name]
 
 
-def _places(data_dir: str | Path | None) -> list[tuple[str, Path]]:
-    places = []
+@dataclass(frozen=True)
+class Copy:
+    """A copy of a data file: the place it was found in (``GYM4REAL_DATA_DIR``, ``user cache``...) and its path."""
+
+    where: str
+    path: Path
+
+
+def places(data_dir: str | Path | None = None) -> list[tuple[str, Path]]:
+    """The folders searched for data files, in order, each with the name of the setting that gave it."""
+    found = []
     if data_dir:
-        places.append(("config `data_dir`", Path(data_dir).expanduser()))
+        found.append(("config `data_dir`", Path(data_dir).expanduser()))
     if os.environ.get(DATA_DIR_ENV):
-        places.append((DATA_DIR_ENV, Path(os.environ[DATA_DIR_ENV]).expanduser()))
-    places.append(("user cache", cache_dir()))
-    return places
+        found.append((DATA_DIR_ENV, Path(os.environ[DATA_DIR_ENV]).expanduser()))
+    found.append(("user cache", cache_dir()))
+    return found
+
+
+def find(name: str, data_dir: str | Path | None = None) -> Copy | None:
+    """Return the first copy of a registered data file in the places searched (unchecked), or None."""
+    spec = dataset(name)
+    for where, folder in places(data_dir):
+        if (folder / spec.path).is_file():
+            return Copy(where, folder / spec.path)
+    return None
+
+
+def is_intact(spec: DatasetSpec, path: Path) -> bool:
+    """Whether a file has the SHA-256 registered for it."""
+    return sha256_of(path) == spec.sha256
 
 
 def _check(spec: DatasetSpec, path: Path, where: str) -> None:
-    got = sha256_of(path)
-    if got != spec.sha256:
+    if not is_intact(spec, path):
         raise DataFileError(
-            f"data file `{spec.path}` ({spec.name}) in {where} `{path}` is corrupt: sha256 {got}, expected "
-            f"{spec.sha256}. Replace it with the upstream file {spec.url}"
+            f"data file `{spec.path}` ({spec.name}) in {where} `{path}` is corrupt: sha256 {sha256_of(path)}, "
+            f"expected {spec.sha256}. Replace it with the upstream file {spec.url}"
         )
+
+
+def upstream_folder(spec: DatasetSpec) -> str | None:
+    """The upstream folder that is a data folder for this file, in words, or None if upstream lays it out otherwise.
+
+    A file published on GitHub whose upstream path ends with its path here (``dam/MEF.csv`` under
+    ``gym4real/data/`` of the reference repository) can be read from a copy of that folder through
+    ``GYM4REAL_DATA_DIR``: ``the folder `gym4real/data` of github.com/Daveonwave/gym4ReaL at commit 774d5ce``.
+    """
+    url = urlsplit(spec.url)
+    parts = url.path.strip("/").split("/")
+    rel = "/".join(parts[3:])
+    if url.hostname != "raw.githubusercontent.com" or len(parts) < 4 or not rel.endswith("/" + spec.path):
+        return None
+    ref = f"commit {parts[2][:7]}" if re.fullmatch(r"[0-9a-f]{40}", parts[2]) else parts[2]
+    return f"the folder `{rel.removesuffix('/' + spec.path)}` of github.com/{parts[0]}/{parts[1]} at {ref}"
+
+
+def where_to_get(spec: DatasetSpec) -> str:
+    """Where a copy of the file comes from, for the fix of an error: its upstream data folder, else its address."""
+    folder = upstream_folder(spec)
+    return f"a copy of {folder} is one" if folder else f"upstream: {spec.url}"
+
+
+def unreachable_host(exc: BaseException, url: str) -> str | None:
+    """The host of ``url`` if ``exc`` is a failure to reach it (name resolution, connection), else None."""
+    import requests
+
+    return urlsplit(url).hostname if isinstance(exc, requests.ConnectionError) else None
+
+
+def _cause(exc: BaseException) -> str:
+    """The name of the innermost reason of a requests failure (``NameResolutionError``), else the exception's."""
+    reason = getattr(exc.args[0], "reason", None) if exc.args else None
+    return type(reason if isinstance(reason, BaseException) else exc).__name__
 
 
 def download_deadline() -> float:
@@ -122,30 +184,58 @@ def resolve(
     """
     spec = dataset(name)
     if download is None:
-        download = os.environ.get(OFFLINE_ENV, "") in ("", "0")
-    searched = []
+        download = not _offline()
     dropped = ""
-    for where, folder in _places(data_dir):
+    for where, folder in places(data_dir):
         path = folder / spec.path
-        searched.append(f"{where} ({path})")
         if path.is_file():
-            if where == "user cache" and download and sha256_of(path) != spec.sha256:
+            if where == "user cache" and download and not is_intact(spec, path):
                 dropped = f"; the corrupt copy in the user cache (sha256 {sha256_of(path)}) was removed"
                 path.unlink()  # our own cache: drop a corrupt copy and fetch it again
                 continue
             _check(spec, path, where)
             return path
-    reason = f"downloads are off ({OFFLINE_ENV} is set)"
-    if download:
-        try:
-            return _download(spec, download_deadline() if deadline is None else deadline)
-        except Exception as exc:
-            reason = f"download from {spec.url} failed ({type(exc).__name__}: {exc}){dropped}"
-    raise DataFileError(
-        f"data file `{spec.path}` ({spec.name}) not found; searched: {'; '.join(searched)}; {reason}. "
-        f"Fix: set {DATA_DIR_ENV} to a folder holding `{spec.path}`, or run `gym4real data fetch "
-        f"{spec.name.split('/')[0]}` where the network is reachable."
-    )
+    if not download:
+        raise _missing(spec, data_dir)
+    try:
+        return _download(spec, download_deadline() if deadline is None else deadline)
+    except Exception as exc:
+        raise _missing(spec, data_dir, exc, dropped) from exc
+
+
+def _offline() -> bool:
+    return os.environ.get(OFFLINE_ENV, "") not in ("", "0")
+
+
+def _missing(
+    spec: DatasetSpec, data_dir: str | Path | None, failure: Exception | None = None, dropped: str = ""
+) -> DataFileError:
+    """The error of a file found nowhere: the places searched, why it was not downloaded, and the fix."""
+    searched = [f"{where} ({folder / spec.path})" for where, folder in places(data_dir)]
+    if not os.environ.get(DATA_DIR_ENV):
+        searched.insert(-1, f"{DATA_DIR_ENV} (not set)")
+    head = f"data file `{spec.path}` ({spec.name}) not found"
+    folder = f"set {DATA_DIR_ENV} to a folder holding `{spec.path}` ({where_to_get(spec)})"
+    fetch = f"`gym4real data fetch {spec.name.split('/')[0]}`"
+    host = None if failure is None else unreachable_host(failure, spec.url)
+    if failure is not None and host is not None:  # a retry from here cannot help: never suggest one
+        cause = _cause(failure)
+        return DataUnreachableError(
+            f"{head}, and {host} cannot be reached to download it ({cause}){dropped}. Searched: "
+            f"{'; '.join(searched)}. Fix: {folder}, or run again where {host} can be reached.",
+            host,
+            cause,
+        )
+    if failure is not None:
+        reason = f"download from {spec.url} failed ({type(failure).__name__}: {failure}){dropped}"
+        fix = f"{folder}, or run {fetch} again"
+    elif _offline():
+        reason = f"downloads are off ({OFFLINE_ENV}={os.environ[OFFLINE_ENV]})"
+        fix = f"{folder}, or run {fetch} (it downloads despite {OFFLINE_ENV})"
+    else:
+        reason = "no download was asked for"
+        fix = f"{folder}, or run {fetch}"
+    return DataFileError(f"{head}; searched: {'; '.join(searched)}; {reason}. Fix: {fix}.")
 
 
 class DeadlineDownloader:
@@ -193,7 +283,7 @@ def _download(spec: DatasetSpec, deadline: float) -> Path:
     name = uuid.uuid4().hex
     try:
         _remove_stale_staging(root)
-        with filelock.FileLock(root / f"{name}.lock"):
+        with filelock.FileLock(root / f"{name}.lock"), _quiet(pooch.get_logger()):
             try:
                 fetched = pooch.retrieve(
                     spec.url,
@@ -212,6 +302,17 @@ def _download(spec: DatasetSpec, deadline: float) -> Path:
         (root / f"{name}.lock").unlink(missing_ok=True)
         _remove_empty([root, *made])
     return target
+
+
+@contextlib.contextmanager
+def _quiet(logger: logging.Logger) -> Iterator[None]:
+    """Silence a logger's notices (pooch's "Downloading data from ..." would land inside a progress bar)."""
+    level = logger.level
+    logger.setLevel(logging.WARNING)
+    try:
+        yield
+    finally:
+        logger.setLevel(level)
 
 
 def _remove_empty(folders: list[Path]) -> None:

@@ -19,6 +19,21 @@ class DataFileError(Gym4RealError, FileNotFoundError):
     """A data file is missing, corrupt or malformed."""
 
 
+class DataUnreachableError(DataFileError):
+    """A data file is missing here and its upstream host cannot be reached (name resolution or connection).
+
+    Args:
+        message: What is missing, where it was searched and the fix.
+        host: The host that could not be reached.
+        cause: Why, in one word (``NameResolutionError``, ``NewConnectionError``...).
+    """
+
+    def __init__(self, message: str, host: str, cause: str) -> None:
+        super().__init__(message)
+        self.host = host
+        self.cause = cause
+
+
 class PluginLoadError(Gym4RealError, ImportError):
     """One or more ``gym4real.plugins`` entry points failed to load or to register."""
 

@@ -1,0 +1,160 @@
+"""``gym4real data list|fetch|verify``: the registered data files as one table, a summary and the fix.
+
+``list`` looks for a copy of each file (no hashing), ``verify`` checks each copy's SHA-256, ``fetch``
+downloads the missing ones and stops asking a host after it could not be reached once.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from collections import Counter
+from collections.abc import Sequence
+from dataclasses import dataclass
+from urllib.parse import urlsplit
+
+from gym4real.core import datasets
+from gym4real.core.errors import DataUnreachableError, Gym4RealError
+from gym4real.core.specs import DatasetSpec
+
+
+@dataclass(frozen=True)
+class Row:
+    """One data file in the table: its spec, status and the copy found (``where`` is empty if none)."""
+
+    spec: DatasetSpec
+    status: str
+    size: int | None = None
+    where: str = ""
+
+
+def select(names: Sequence[str]) -> list[DatasetSpec]:
+    """The registered data files named by ``names`` (domains, folders or full names; all when empty)."""
+    specs = [
+        spec
+        for name, spec in sorted(datasets.registry().datasets.items())
+        if not names or any(name == k or name.startswith(k.rstrip("/") + "/") for k in names)
+    ]
+    if names and not specs:
+        raise Gym4RealError(f"no data file matches {' '.join(names)}; `gym4real data list` shows them all")
+    return specs
+
+
+def _row(spec: DatasetSpec, verify: bool) -> Row:
+    copy = datasets.find(spec.name)
+    if copy is None:
+        return Row(spec, "missing")
+    status = ("ok" if datasets.is_intact(spec, copy.path) else "corrupt") if verify else "present"
+    return Row(spec, status, copy.path.stat().st_size, copy.where)
+
+
+def _fetch(specs: Sequence[DatasetSpec]) -> tuple[list[Row], dict[str, str]]:
+    """Download the missing files; a host that cannot be reached is not asked again (its files are skipped)."""
+    rows, dead = [], {}
+    for spec in specs:
+        host = urlsplit(spec.url).hostname or spec.url
+        row = _row(spec, verify=True)
+        if row.status == "ok":
+            rows.append(row)
+        elif host in dead:
+            rows.append(Row(spec, "skipped"))
+        else:
+            print(f"downloading {spec.name} from {host}", file=sys.stderr, flush=True)
+            try:
+                path = datasets.resolve(spec.name, download=True)
+            except DataUnreachableError as exc:
+                dead[host] = exc.cause
+                rows.append(Row(spec, "failed"))
+            except Gym4RealError:
+                rows.append(Row(spec, "failed"))
+            else:
+                rows.append(Row(spec, "fetched", path.stat().st_size, "user cache"))
+    return rows, dead
+
+
+def size_text(size: int | None) -> str:
+    """``1234567`` -> ``1.2 MB`` (decimal units); ``-`` for no size."""
+    if size is None:
+        return "-"
+    value = float(size)
+    for unit in ("B", "kB", "MB"):
+        if value < 1000:
+            return f"{value:.0f} {unit}" if unit == "B" else f"{value:.1f} {unit}"
+        value /= 1000
+    return f"{value:.1f} GB"
+
+
+def table(rows: Sequence[Row], urls: bool = False) -> str:
+    """The rows as a fixed-width table with a header (and the upstream address of each file if ``urls``)."""
+    cells = [("name", "size", "status", "found in", *(["path", "upstream address"] if urls else []))]
+    for r in rows:
+        cells.append((r.spec.name, size_text(r.size), r.status, r.where or "-", *([r.spec.path, r.spec.url] * urls)))
+    widths = [max(len(c[i]) for c in cells) for i in range(len(cells[0]))]
+    return "\n".join(
+        "  ".join(
+            f"{c:{'>' if i == 1 else '<'}{w}}" for i, (c, w) in enumerate(zip(line, widths, strict=True))
+        ).rstrip()
+        for line in cells
+    )
+
+
+def places_text() -> str:
+    """The folders searched, one line, each with the setting that gave it."""
+    parts = [f"{where} = {folder}" for where, folder in datasets.places()]
+    if not os.environ.get(datasets.DATA_DIR_ENV):
+        parts.insert(0, f"{datasets.DATA_DIR_ENV} not set")
+    return "searched: " + "; ".join(parts)
+
+
+def _fix(rows: Sequence[Row], action: str, dead: dict[str, str]) -> str:
+    missing = [r for r in rows if r.status in ("missing", "failed", "skipped")]
+    corrupt = [r for r in rows if r.status == "corrupt"]
+    fixes = []
+    if missing:
+        domains = " ".join(sorted({r.spec.name.split("/")[0] for r in missing}))
+        folders = Counter(datasets.upstream_folder(r.spec) for r in missing)
+        held = [f"a copy of {f} holds {n} of them" for f, n in sorted(folders.items(), key=str) if f]
+        fixes.append(
+            f"set {datasets.DATA_DIR_ENV} to a folder holding the missing files at their paths "
+            f"({'; '.join([*held, '`gym4real data list --urls` gives the upstream address of each'])})"
+        )
+        if not dead and action != "fetch":  # an unreachable host: fetching again from here cannot help
+            fixes.append(f"run `gym4real data fetch {domains}` to download them")
+    for r in corrupt:
+        fixes.append(f"replace `{r.spec.path}` in {r.where} with the upstream file {r.spec.url}")
+    return "Fix: " + "; or ".join(fixes) + "." if fixes else ""
+
+
+def summary(rows: Sequence[Row], dead: dict[str, str]) -> str:
+    """One line: how many files, how many here (and their size), which are missing or corrupt."""
+    here = [r for r in rows if r.size is not None]
+    text = f"{len(rows)} data files: {len(here)} here ({size_text(sum(r.size or 0 for r in here))})"
+    for status in ("fetched", "corrupt", "missing", "failed", "skipped"):
+        named = [r.spec.name for r in rows if r.status == status]
+        if named:
+            text += f", {len(named)} {status} ({', '.join(named[:4])}{', ...' if len(named) > 4 else ''})"
+    for host, cause in dead.items():
+        text += f"; {host} cannot be reached ({cause}): no further file was asked of it"
+    return text
+
+
+def run(action: str, names: Sequence[str], urls: bool = False) -> None:
+    """Print the table of ``action`` (list, fetch or verify) over the selected files (with addresses if ``urls``).
+
+    Raises:
+        Gym4RealError: ``fetch`` or ``verify`` left a file missing or corrupt (the summary and the fix).
+    """
+    specs = select(names)
+    dead: dict[str, str] = {}
+    if action == "fetch":
+        rows, dead = _fetch(specs)
+    else:
+        rows = [_row(spec, verify=action == "verify") for spec in specs]
+    print(table(rows, urls))
+    print(places_text())
+    line, fix = summary(rows, dead), _fix(rows, action, dead)
+    if action != "list" and fix:
+        raise Gym4RealError(f"{line}. {fix}")
+    print(line)
+    if fix:
+        print(fix)
