@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -58,3 +60,38 @@ def assert_same_obs(obs: object, stored: object, t: int) -> None:
             assert_same_obs(value, stored[key], t)  # type: ignore[index]
     else:
         np.testing.assert_allclose(obs, stored[t], rtol=1e-6)  # type: ignore[index]
+
+
+NO_JAX = """
+import sys
+sys.modules["jax"] = None  # any `import jax` now raises ImportError
+from gym4real.core.cli import main
+code = main(["dataset", "collect", "gym4real/elevator-v0", "--policy", "longest_first", "--episodes", "2",
+             "--out", sys.argv[1]])
+assert "jax" not in sys.modules or sys.modules["jax"] is None
+sys.exit(code)
+"""
+
+
+def test_collect_needs_no_jax(tmp_path: Path, monkeypatch) -> None:
+    """The ``offline`` extra leaves out minari's ``create`` extra (jax, jaxlib): collection must not import jax."""
+    minari = pytest.importorskip("minari")
+    if "gym4real/elevator-v0" not in gym4real.list_envs():
+        pytest.skip("gym4real-elevator is not installed")
+    run = subprocess.run([sys.executable, "-c", NO_JAX, str(tmp_path)], capture_output=True, text=True, check=False)
+    assert run.returncode == 0, run.stderr
+    monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path))
+    dataset = minari.load_dataset(dataset_id("gym4real/elevator-v0", "longest_first"))
+    assert dataset.total_episodes == 2
+    for episode in dataset.iterate_episodes():
+        arrivals = episode.observations["arrivals"]  # the elevator observes a Dict: one array per key
+        assert len(arrivals) == len(episode.actions) + 1 == len(episode.rewards) + 1
+        assert episode.terminations[-1] or episode.truncations[-1]
+        assert not (episode.terminations[:-1].any() or episode.truncations[:-1].any())
+
+
+def test_the_optional_extra_offline_does_not_pull_jax() -> None:
+    from importlib.metadata import requires
+
+    offline = [r for r in requires("gym4real-core") or [] if r.replace('"', "'").endswith("extra == 'offline'")]
+    assert offline and not [r for r in offline if "create" in r or "jax" in r], offline
