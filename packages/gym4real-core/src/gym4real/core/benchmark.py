@@ -1,9 +1,10 @@
 """The benchmark harness: run named policies on an environment's evaluation protocol.
 
 ``benchmark()`` returns a :class:`BenchmarkResult` whose ``returns`` maps each policy to its episode
-returns and ``components`` maps policy -> reward component -> per-episode sums. ``save()`` writes the
-per-episode CSV, a JSON record, a summary table and the paper's two figures (mean cumulative reward
-with a 95 % band, boxplot of returns).
+returns and ``components`` maps policy -> reward component -> per-episode sums. A policy is keyed as it
+was given (a model file as ``kind:path``); tables and figures show its short label (``labels``).
+``save()`` writes the per-episode CSV, a JSON record, a summary table and the paper's two figures (mean
+cumulative reward with a 95 % band, boxplot of returns).
 """
 
 from __future__ import annotations
@@ -26,6 +27,44 @@ from gym4real.core.specs import BenchmarkSpec
 
 PolicyRef = str | Callable[[Any], Any]
 
+#: Below this many episodes per policy the table warns that its bootstrap CI and IQM mean little: the
+#: percentile bootstrap covers the mean far less often than 95 % on small samples, and the IQM of fewer
+#: than 4 values is a plain mean.
+FEW_EPISODES = 10
+
+
+def policy_name(ref: PolicyRef) -> str:
+    """The key of a policy in a result: the string as given, or a callable's name."""
+    return ref if isinstance(ref, str) else getattr(ref, "__name__", type(ref).__name__)
+
+
+def short_label(name: str) -> str:
+    """The label of a policy in tables and figures: a model file ``kind:path`` by its run folder or file name.
+
+    ``qlearning:runs/gym4real_elevator-v0/qlearning-paper-seed0/qtable.npz`` -> ``qlearning-paper-seed0``
+    (a run folder of ``gym4real train`` names the algorithm, preset and seed); ``ppo:models/best.zip`` ->
+    ``ppo:best``; a baseline name is its own label.
+    """
+    kind, sep, path = name.partition(":")
+    if not sep:
+        return name
+    file = Path(path)
+    return file.parent.name if file.parent.name.startswith(kind) else f"{kind}:{file.stem}"
+
+
+def labels_of(names: Sequence[str]) -> dict[str, str]:
+    """Short labels of policy keys; keys whose labels would collide keep their full name."""
+    short = {n: short_label(n) for n in names}
+    return {n: label if list(short.values()).count(label) == 1 else n for n, label in short.items()}
+
+
+def number_format(values: Sequence[float]) -> Callable[[float], str]:
+    """One fixed-point format for a table's numbers, with decimals for about four significant digits of the largest."""
+    finite = [abs(v) for v in values if np.isfinite(v)]
+    largest = max(finite, default=0.0)
+    decimals = int(np.clip(3 - np.floor(np.log10(largest)), 0, 6)) if largest > 0 else 0
+    return lambda v: f"{v:,.{decimals}f}"
+
 
 @dataclass
 class BenchmarkResult:
@@ -38,6 +77,12 @@ class BenchmarkResult:
     rewards: dict[str, list[np.ndarray]] = field(default_factory=dict)
     final_info: dict[str, dict[str, list[float]]] = field(default_factory=dict)
     objective: tuple[str, ...] = ()
+    step_unit: str = "step"
+
+    @property
+    def labels(self) -> dict[str, str]:
+        """Policy key -> the short label tables and figures show (see :func:`short_label`)."""
+        return labels_of(list(self.returns))
 
     def objective_values(self, policy: str) -> list[float]:
         """Per-episode sum of the objective's components (the return when no objective is set)."""
@@ -47,12 +92,12 @@ class BenchmarkResult:
         return [float(sum(comps[c][i] for c in self.objective)) for i in range(len(self.returns[policy]))]
 
     def summary(self) -> pd.DataFrame:
-        """One row per policy: mean, std, interquartile mean and 95 % bootstrap CI of the return."""
+        """One row per policy (by label): mean, std, interquartile mean and 95 % bootstrap CI of the return."""
         rows = []
         for name, rets in self.returns.items():
             lo, hi = stats.bootstrap_ci(rets)
             row: dict[str, Any] = {
-                "policy": name,
+                "policy": self.labels[name],
                 "episodes": len(rets),
                 "mean": float(np.mean(rets)),
                 "std": float(np.std(rets)),
@@ -70,11 +115,25 @@ class BenchmarkResult:
         return pd.DataFrame(rows).set_index("policy")
 
     def table(self) -> str:
-        """The summary as a fixed-width text table."""
+        """The summary as a fixed-width text table, one number format throughout, with notes on its columns."""
         cols = ["episodes", "mean", "std", "iqm", "ci95_low", "ci95_high"]
         if self.objective:
             cols.append("objective_mean")
-        return self.summary()[cols].to_string(float_format=lambda v: f"{v:.4g}")
+        frame = self.summary()[cols]
+        numbers = frame.drop(columns="episodes").to_numpy(dtype=float).ravel().tolist()
+        notes = [
+            "mean, std, iqm (interquartile mean) of the episode return; ci95_low/high: 95 % bootstrap CI of the mean"
+        ]
+        if self.objective:
+            notes.append(
+                f"objective_mean: mean per-episode sum of {' + '.join(self.objective)} (the paper's objective)"
+            )
+        fewest = int(frame["episodes"].min()) if len(frame) else 0
+        if fewest < FEW_EPISODES:
+            notes.append(
+                f"warning: {fewest} episode(s) per policy: bootstrap CIs and the IQM mean little below {FEW_EPISODES}"
+            )
+        return frame.to_string(float_format=number_format(numbers)) + "\n" + "\n".join(f"  {n}" for n in notes)
 
     def per_episode(self) -> pd.DataFrame:
         """One row per (policy, episode) with return, objective, components and final info."""
@@ -83,7 +142,7 @@ class BenchmarkResult:
             objective = self.objective_values(name)
             for i, ret in enumerate(rets):
                 row: dict[str, Any] = {
-                    "policy": name,
+                    "policy": self.labels[name],
                     "episode": i,
                     **_jsonable(self.episodes[i]),
                     "return": ret,
@@ -105,6 +164,8 @@ class BenchmarkResult:
         self.summary().to_csv(written[1])
         record = {
             "env_id": self.env_id,
+            "labels": self.labels,  # policy as given (a model file's path) -> label in the tables and figures
+            "step_unit": self.step_unit,
             "objective": list(self.objective),
             "episodes": [_jsonable(e) for e in self.episodes],
             "returns": self.returns,
@@ -204,7 +265,9 @@ def benchmark(
         raise ConfigError(f'`episodes` must be "test" or a positive int, not {episodes!r}')
     if not policies:
         policies = list(spec.policies) if spec and spec.policies else sorted(registry().baselines.get(env_id, {}))
-    result = BenchmarkResult(env_id, plan, objective=spec.objective if spec else ())
+    result = BenchmarkResult(
+        env_id, plan, objective=spec.objective if spec else (), step_unit=spec.step_unit if spec else "step"
+    )
     final_keys = spec.final_info if spec else ()
     bar = None
     if progress:
@@ -213,7 +276,7 @@ def benchmark(
         bar = tqdm(total=len(policies) * len(plan), desc=env_id, unit="episode")
     try:
         for ref in policies:
-            name = ref if isinstance(ref, str) else getattr(ref, "__name__", type(ref).__name__)
+            name = policy_name(ref)
             env = gym.make(env_id, **kwargs)
             try:
                 policy = make_policy(env_id, ref, env)

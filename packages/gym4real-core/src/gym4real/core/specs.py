@@ -132,6 +132,8 @@ class BenchmarkSpec:
         figures: ``"module:function"``; ``function(result, out)`` draws the domain's own figures of the
             paper into the folder ``out`` and returns their paths (beside the two common figures).
         description: One line on the protocol.
+        step_unit: What one step of the protocol's env is, the x-axis label of per-step figures (``"day"``,
+            ``"hour"``, ``"second"``).
     """
 
     env_id: str
@@ -142,6 +144,7 @@ class BenchmarkSpec:
     final_info: tuple[str, ...] = ()
     figures: str | None = None
     description: str = ""
+    step_unit: str = "step"
 
     def __post_init__(self) -> None:
         _check(bool(_ENTRY.match(self.protocol)), f"protocol `{self.protocol}` is not `module:function`")

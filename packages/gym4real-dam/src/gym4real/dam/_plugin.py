@@ -97,6 +97,7 @@ def gym4real_register_benchmarks() -> list[BenchmarkSpec | TrainingSpec]:
             objective=("deficit", "overflow", "starving"),
             final_info=("recorded_level_rmse",),
             description="the 13 test years in file order, one one-year episode each, from 0.35 m",
+            step_unit="day",
         ),
         *(TrainingSpec(ENV_ID, "ppo", preset, f"gym4real.dam:rl/ppo_{preset}.yaml") for preset in ("paper", "smoke")),
     ]

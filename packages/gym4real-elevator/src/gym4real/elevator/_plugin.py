@@ -59,6 +59,7 @@ def gym4real_register_benchmarks() -> list[BenchmarkSpec | TrainingSpec]:
             env_kwargs={"preset": "test"},
             policies=("random", "longest_first", "shortest_first"),
             description="30 episodes of the seed-1234 evaluation sequence",
+            step_unit="second",
         ),
         *(
             TrainingSpec(ENV_ID, algo, preset, f"gym4real.elevator:rl/{algo}_{preset}.yaml")

@@ -126,6 +126,7 @@ def gym4real_register_benchmarks() -> list[BenchmarkSpec | TrainingSpec]:
             objective=("trading", "degradation"),
             final_info=("soh",),
             description="one 2019 episode (8759 h) per test household 370..397; objective in EUR",
+            step_unit="hour",
         ),
         *(
             TrainingSpec(ENV_ID, "ppo", preset, f"gym4real.microgrid:rl/ppo_{preset}.yaml")

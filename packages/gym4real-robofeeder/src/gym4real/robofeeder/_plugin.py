@@ -188,6 +188,7 @@ def gym4real_register_benchmarks() -> list[BenchmarkSpec | TrainingSpec]:
             final_info=("objects_picked",),
             figures="gym4real.robofeeder.figures:bench_heatmap" if env_id == PICKING_V0 else None,
             description="100 seeded episodes (seeds 1000..1099), one object uniformly placed in the spawn area",
+            step_unit="grasp attempt",
         )
         for env_id in (PICKING_V0, PICKING_V1)
     ]
@@ -199,6 +200,7 @@ def gym4real_register_benchmarks() -> list[BenchmarkSpec | TrainingSpec]:
         final_info=("objects_picked",),
         figures="gym4real.robofeeder.figures:bench_planning",
         description="50 seeded episodes (seeds 1000..1049), three objects",
+        step_unit="planning decision (one object chosen, or idle)",
     )
     trainings = [
         TrainingSpec(env_id, "ppo", preset, f"gym4real.robofeeder:rl/{kind}_ppo_{preset}.yaml")

@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from gym4real.core.benchmark import short_label
 from gym4real.robofeeder._plugin import PICKING_V0, PLANNING_V0
 
 if TYPE_CHECKING:
@@ -128,7 +129,7 @@ def picking_heatmap(
         for r, c in zip(*np.nonzero(~reachable), strict=True):
             ax.add_patch(Rectangle((lo + c * cell, lo + r * cell), cell, cell, fill=False, hatch="//", lw=0))
         within = f"{rates[reachable].mean():.2f}" if reachable.any() else "-"
-        title = f"{name}: mean success {rates.mean():.2f}\n{within} within reach (hatched: out of reach)"
+        title = f"{short_label(name)}: mean success {rates.mean():.2f}\n{within} within reach (hatched: out of reach)"
         ax.set(xlim=(0, size), ylim=(size, 0), xlabel="image u (px)", ylabel="image v (px)")
         ax.set_title(title, fontsize=9)
     fig.colorbar(im, ax=axes[0].tolist(), label="success rate", shrink=0.8)
@@ -189,7 +190,7 @@ def planning_returns(
             means.append(m)
             lows.append(m - half)
             highs.append(m + half)
-        ax.plot(objects, means, marker="o", label=name)
+        ax.plot(objects, means, marker="o", label=short_label(name))
         ax.fill_between(objects, lows, highs, alpha=0.25)
     ax.set(
         xlabel="objects in the bin",

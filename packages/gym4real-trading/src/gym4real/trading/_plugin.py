@@ -93,6 +93,7 @@ def gym4real_register_benchmarks() -> list[BenchmarkSpec | TrainingSpec]:
             final_info=("cum_pnl", "cum_fees"),
             figures="gym4real.trading.evaluation:pnl_figures",
             description="every trading day of the test split, in order (daily P&L in USD)",
+            step_unit="hour of the trading day",
         ),
         *(
             TrainingSpec(ENV_ID, algo, preset, f"gym4real.trading:rl/{algo}_{preset}.yaml")

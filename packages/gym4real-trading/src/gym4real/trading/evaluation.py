@@ -59,7 +59,7 @@ def pnl_figures(result: BenchmarkResult, out: str | Path, capital: float = 100_0
     fig, ax = plt.subplots(figsize=(8, 4))
     for name, pnl in daily.items():
         x = np.array(days[: len(pnl)]) if dated else np.arange(1, len(pnl) + 1)
-        ax.plot(x, np.cumsum(pnl), label=name)
+        ax.plot(x, np.cumsum(pnl), label=result.labels[name])
     ax.axhline(0, color="grey", lw=0.5)
     ax.set(xlabel="day" if dated else "episode", ylabel="cumulative P&L (% of capital)")
     ax.set_title(f"{result.env_id}: cumulative P&L over {len(result.episodes)} trading days")
@@ -70,7 +70,7 @@ def pnl_figures(result: BenchmarkResult, out: str | Path, capital: float = 100_0
     plt.close(fig)
     fig, ax = plt.subplots(figsize=(7, 4))
     names = list(daily)
-    ax.boxplot([daily[n] for n in names], tick_labels=names)
+    ax.boxplot([daily[n] for n in names], tick_labels=[result.labels[n] for n in names])
     ax.axhline(0, color="grey", lw=0.5)
     ax.set(ylabel="daily P&L (% of capital)", title=f"{result.env_id}: daily P&L")
     fig.tight_layout()

@@ -116,6 +116,7 @@ def gym4real_register_benchmarks() -> list[BenchmarkSpec | TrainingSpec]:
             policies=("random", "p78", "p79", "default"),
             objective=("dsr", "overflow"),
             description="test profiles 0..19 (the paper's 20 episodes); return = cumulative DSR - OVF",
+            step_unit="hour",
         ),
         *(TrainingSpec(ENV_ID, "dqn", preset, f"gym4real.wds:rl/dqn_{preset}.yaml") for preset in ("paper", "smoke")),
     ]
