@@ -71,9 +71,6 @@ def test_unknown_policy_is_a_clear_error() -> None:
 def test_cli_list_info_and_one_line_errors(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["list"]) == 0
     assert "gym4real/elevator-v0" in capsys.readouterr().out
-    assert main(["info", "gym4real/elevator-v0"]) == 0
-    info = json.loads(capsys.readouterr().out)
-    assert info["flags"]["provably_efficient"] is True
     assert main(["bench", "gym4real/elevatr-v0"]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("gym4real: error:") and "\n" not in err and "Traceback" not in err
@@ -143,3 +140,43 @@ def _absent() -> int:
         except gym4real.core.DataFileError:
             missing += 1
     return missing
+
+
+def test_every_cli_argument_has_help_and_algo_lists_its_choices() -> None:
+    import argparse
+
+    from gym4real.core.cli import _parser
+    from gym4real.core.rl.presets import ALGOS
+
+    def parsers(parser: argparse.ArgumentParser, path: str) -> list[tuple[str, argparse.ArgumentParser]]:
+        found = [(path, parser)]
+        for action in parser._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                helps = {a.dest: a.help for a in action._choices_actions}
+                for name, child in action.choices.items():
+                    assert helps.get(name), f"`{path} {name}` has no help line"
+                    found += parsers(child, f"{path} {name}")
+        return found
+
+    for path, parser in parsers(_parser(), "gym4real"):
+        for action in parser._actions:
+            if not isinstance(action, argparse._SubParsersAction):
+                assert action.help, f"`{path}` argument {action.dest} has no help text"
+    train = dict(parsers(_parser(), "gym4real"))["gym4real train"]
+    algo = next(a for a in train._actions if a.dest == "algo")
+    assert tuple(algo.choices) == ALGOS and all(name in algo.help for name in ALGOS)
+
+
+def test_cli_info_is_a_readable_summary_and_json_on_request(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["info", "gym4real/elevator-v0"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    fields = {line.split()[0]: line for line in lines[1:] if not line.startswith(" ")}
+    assert lines[0].startswith("gym4real/elevator-v0: ")
+    assert fields["action"].split()[1] == "Discrete(3)"  # the elevator's three actions: up, down, stay
+    assert "(3600) steps" in fields["episode"]  # episode end: the default duration
+    assert "default, test" in fields["presets"] and "longest_first" in fields["baselines"]
+    assert "one step = one second" in " ".join(lines)
+    assert main(["info", "gym4real/elevator-v0", "--json"]) == 0
+    record = json.loads(capsys.readouterr().out)
+    assert record["interface"]["action_space"] == "Discrete(3)"
+    assert record["flags"]["provably_efficient"] is True

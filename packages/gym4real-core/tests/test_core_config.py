@@ -4,9 +4,9 @@ import sys
 from pathlib import Path
 
 import pytest
-from pydantic import Field
+from pydantic import ConfigDict, Field, ValidationError
 
-from gym4real.core.config import EnvConfig, merge
+from gym4real.core.config import EnvConfig, describe_validation_error, merge
 from gym4real.core.errors import ConfigError
 
 
@@ -72,3 +72,29 @@ def test_config_is_frozen_and_json_serialisable(demo_config) -> None:
 
 def test_merge_is_deep() -> None:
     assert merge({"a": {"x": 1, "y": 2}, "b": 1}, {"a": {"y": 3}}) == {"a": {"x": 1, "y": 3}, "b": 1}
+
+
+def test_a_mistyped_field_is_matched_to_the_nearest_name(demo_config) -> None:
+    with pytest.raises(ConfigError, match=r"unknown field `stepz` \(did you mean `steps`\?\)"):
+        demo_config.build(stepz=3)
+    with pytest.raises(ConfigError) as far:
+        demo_config.build(horizon=3)
+    assert "did you mean" not in str(far.value)  # nothing near: no guess
+
+
+def test_a_mistyped_nested_field_is_matched_within_its_section() -> None:
+    from pydantic import BaseModel
+
+    class Reward(BaseModel):
+        model_config = ConfigDict(extra="forbid")
+        trading: float = 1.0
+        degradation: float = 1.0
+
+    class Demo(BaseModel):
+        model_config = ConfigDict(extra="forbid")
+        reward: Reward = Reward()
+
+    with pytest.raises(ValidationError) as err:
+        Demo.model_validate({"reward": {"tradin": 2.0}})
+    message = describe_validation_error(err.value, "Demo", Demo)
+    assert message == "invalid Demo: unknown field `reward.tradin` (did you mean `reward.trading`?)"

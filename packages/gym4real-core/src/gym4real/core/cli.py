@@ -11,7 +11,6 @@ import json
 import os
 import sys
 from collections.abc import Callable, Sequence
-from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
@@ -28,9 +27,10 @@ def _cmd_list(args: argparse.Namespace) -> None:
 
 
 def _cmd_info(args: argparse.Namespace) -> None:
-    from gym4real.core.info import env_info
+    from gym4real.core.info import summary, summary_text
 
-    print(json.dumps(asdict(env_info(args.env_id)), indent=2, default=str))
+    record = summary(args.env_id)
+    print(json.dumps(record, indent=2, default=str) if args.json else summary_text(record))
 
 
 def _env_kwargs(pairs: Sequence[str]) -> dict[str, Any]:
@@ -87,10 +87,10 @@ def _cmd_record(args: argparse.Namespace) -> None:
 
 def _add_record(sub: Any) -> None:
     rec = sub.add_parser("record", help="write videos (MP4 and animated GIF) of a policy's episodes")
-    rec.add_argument("env_id")
+    rec.add_argument("env_id", help=ENV_ID_HELP)
     rec.add_argument("--policy", required=True, help="a baseline name or kind:path model (ppo:runs/x/model.zip)")
     rec.add_argument("--episodes", type=int, default=1, help="episodes, seeded seed, seed + 1, ...")
-    rec.add_argument("--seed", type=int, default=0)
+    rec.add_argument("--seed", type=int, default=0, help="seed of the first episode (default 0)")
     rec.add_argument("--out", default=str(Path("results") / "videos"), help="output folder (default results/videos)")
     rec.add_argument("--fps", type=float, default=None, help="frames per second (default the env's render_fps)")
     rec.add_argument("--env", action="append", default=[], metavar="KEY=VALUE", help="make() keyword argument")
@@ -169,64 +169,79 @@ TRUST = (
 )
 
 
+ENV_ID_HELP = "an installed environment id, e.g. gym4real/elevator-v0 (`gym4real list` shows them)"
+
+
+def _command(sub: Any, name: str, text: str, run: Callable[[argparse.Namespace], None]) -> argparse.ArgumentParser:
+    parser: argparse.ArgumentParser = sub.add_parser(name, help=text, description=text[0].upper() + text[1:] + ".")
+    parser.set_defaults(run=run)
+    return parser
+
+
 def _parser() -> argparse.ArgumentParser:
+    from gym4real.core.rl.presets import ALGOS
+
     p = argparse.ArgumentParser(
         prog="gym4real", description="Realistic RL environments with the Gymnasium API.", epilog=TRUST
     )
     p.add_argument("--version", action=_Versions, help="list the installed gym4real distributions and exit")
-    sub = p.add_subparsers(dest="command", required=True)
-    sub.add_parser("list", help="list the installed environments").set_defaults(run=_cmd_list)
-    info = sub.add_parser("info", help="describe an environment")
-    info.add_argument("env_id")
-    info.set_defaults(run=_cmd_info)
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    _command(sub, "list", "list the installed environments", _cmd_list)
+    info = _command(
+        sub, "info", "describe an environment: flags, spaces, episode end, presets, baselines, data", _cmd_info
+    )
+    info.add_argument("env_id", help=ENV_ID_HELP)
+    info.add_argument("--json", action="store_true", help="print the record as JSON (for programs)")
 
-    bench = sub.add_parser("bench", help="benchmark policies on an environment (table and figures)")
-    bench.add_argument("env_id")
+    bench = _command(sub, "bench", "benchmark policies on an environment (table and figures)", _cmd_bench)
+    bench.add_argument("env_id", help=ENV_ID_HELP)
     bench.add_argument(
         "--policies",
         help="comma-separated baselines or kind:path models, read as data (default: the protocol's)",
     )
-    bench.add_argument("--episodes", default="test", help='"test" (the paper protocol) or a number')
-    bench.add_argument("--seed", type=int, default=0)
+    bench.add_argument("--episodes", default="test", help='"test" (the paper protocol, default) or a number')
+    bench.add_argument("--seed", type=int, default=0, help="seed of the first episode when --episodes is a number")
     bench.add_argument("--env", action="append", default=[], metavar="KEY=VALUE", help="make() keyword argument")
-    bench.add_argument("--out", help="output folder (default results/<env>)")
+    bench.add_argument("--out", help="folder of the table, CSV, JSON and figures (default results/<env>)")
     bench.add_argument("--quiet", action="store_true", help="no progress bar")
-    bench.set_defaults(run=_cmd_bench)
     _add_record(sub)
 
-    data = sub.add_parser("data", help="list, fetch or verify the data files")
-    data.add_argument("action", choices=["list", "fetch", "verify"])
+    data = _command(sub, "data", "list, fetch or verify the data files", _cmd_data)
+    data.add_argument(
+        "action",
+        choices=["list", "fetch", "verify"],
+        help="list: where each file is; fetch: download the missing ones; verify: check each copy's SHA-256",
+    )
     data.add_argument("names", nargs="*", help="domains or dataset names (default: all)")
     data.add_argument("--years", nargs="+", type=int, help="years to download from a domain's own source (trading)")
     data.add_argument("--urls", action="store_true", help="add each file's path and upstream address to the table")
-    data.set_defaults(run=_cmd_data)
 
-    train = sub.add_parser("train", help="train an RL agent with a registered preset or a YAML preset file")
-    train.add_argument("env_id")
-    train.add_argument("--algo", required=True)
+    train = _command(sub, "train", "train an RL agent with a registered preset or a YAML preset file", _cmd_train)
+    train.add_argument("env_id", help=ENV_ID_HELP)
+    train.add_argument("--algo", required=True, choices=ALGOS, help=f"algorithm: {', '.join(ALGOS)}")
     train.add_argument("--preset", default="paper", help="registered preset (paper, smoke) or a YAML file")
-    train.add_argument("--seed", type=int, default=0)
-    train.add_argument("--out", default=None)
-    train.add_argument("--quiet", action="store_true")
-    train.set_defaults(run=_cmd_train)
+    train.add_argument("--seed", type=int, default=0, help="seed of the run (default 0)")
+    train.add_argument("--out", default=None, help="output folder (default runs/<env>/<algo>-<preset>-seed<S>)")
+    train.add_argument("--quiet", action="store_true", help="no progress bar")
 
-    rep = sub.add_parser("reproduce", help="train (or load) the paper's agent and benchmark it against the baselines")
-    rep.add_argument("env_id")
-    rep.add_argument("--preset", default="paper")
-    rep.add_argument("--seed", type=int, default=0)
-    rep.add_argument("--out", default=None)
-    rep.add_argument("--quiet", action="store_true")
-    rep.set_defaults(run=_cmd_reproduce)
-    dataset = sub.add_parser("dataset", help="offline-RL datasets")
-    dsub = dataset.add_subparsers(dest="dataset_command", required=True)
-    collect = dsub.add_parser("collect", help="write episodes of a policy as a Minari dataset")
-    collect.add_argument("env_id")
+    rep = _command(
+        sub, "reproduce", "train (or load) the paper's agent and benchmark it against the baselines", _cmd_reproduce
+    )
+    rep.add_argument("env_id", help=ENV_ID_HELP)
+    rep.add_argument("--preset", default="paper", help="training preset of every algorithm (paper, smoke)")
+    rep.add_argument("--seed", type=int, default=0, help="seed of the training runs (default 0)")
+    rep.add_argument("--out", default=None, help="output folder (default results/reproduce-<env>-<preset>)")
+    rep.add_argument("--quiet", action="store_true", help="no progress bar")
+
+    dataset = sub.add_parser("dataset", help="offline-RL datasets", description="Offline-RL datasets.")
+    dsub = dataset.add_subparsers(dest="dataset_command", required=True, metavar="COMMAND")
+    collect = _command(dsub, "collect", "write episodes of a policy as a Minari dataset", _cmd_dataset)
+    collect.add_argument("env_id", help=ENV_ID_HELP)
     collect.add_argument("--policy", required=True, help="a baseline name or kind:path model")
-    collect.add_argument("--episodes", type=int, default=10)
-    collect.add_argument("--seed", type=int, default=0)
+    collect.add_argument("--episodes", type=int, default=10, help="number of episodes (default 10)")
+    collect.add_argument("--seed", type=int, default=0, help="seed of the first episode, +1 for each next one")
     collect.add_argument("--env", action="append", default=[], metavar="KEY=VALUE", help="make() keyword argument")
     collect.add_argument("--out", required=True, help="folder of the Minari datasets")
-    collect.set_defaults(run=_cmd_dataset)
     return p
 
 

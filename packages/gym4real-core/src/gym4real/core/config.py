@@ -8,6 +8,7 @@ key, then validated. An unknown key or a wrong type raises :class:`ConfigError` 
 
 from __future__ import annotations
 
+import difflib
 import reprlib
 from collections.abc import Mapping
 from importlib import resources
@@ -119,11 +120,24 @@ def quote(value: Any, limit: int = MAX_QUOTED) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
-def describe_validation_error(err: ValidationError, model: str) -> str:
+def nearest_field(schema: type[BaseModel], loc: tuple[str | int, ...]) -> str:
+    """`` (did you mean `reward_coeff`?)`` for an unknown field at ``loc`` of ``schema``, or ``""`` if none is near."""
+    model: Any = schema
+    for part in loc[:-1]:  # walk down nested models (``reward.weight``)
+        field = model.model_fields.get(part) if isinstance(part, str) else None
+        model = field.annotation if field is not None else None
+        if not (isinstance(model, type) and issubclass(model, BaseModel)):
+            return ""
+    near = difflib.get_close_matches(str(loc[-1]), list(model.model_fields), n=1, cutoff=0.6)
+    return f" (did you mean `{'.'.join([*map(str, loc[:-1]), near[0]])}`?)" if near else ""
+
+
+def describe_validation_error(err: ValidationError, model: str, schema: type[BaseModel] | None = None) -> str:
     """One line per pydantic error, each naming the field: unknown fields and wrong values alike.
 
     What the error quotes of the input is capped (:func:`quote`), and so is the number of lines listed,
-    so that a huge input cannot make a huge message.
+    so that a huge input cannot make a huge message. Given the ``schema`` that was validated, an unknown
+    field is matched to the nearest field name.
     """
     errors = err.errors(include_url=False)
     lines = []
@@ -131,7 +145,7 @@ def describe_validation_error(err: ValidationError, model: str) -> str:
         where = ".".join(str(p) for p in e["loc"]) or "(root)"
         where = where if len(where) <= MAX_QUOTED else where[: MAX_QUOTED - 3] + "..."
         if e["type"] == "extra_forbidden":
-            lines.append(f"unknown field `{where}`")
+            lines.append(f"unknown field `{where}`" + (nearest_field(schema, e["loc"]) if schema else ""))
         elif e["type"] == "value_error":  # a validator's own message, which names its fields and values
             message = e["msg"].removeprefix("Value error, ")
             lines.append(message if not e["loc"] else f"`{where}`: {message}")
@@ -227,4 +241,4 @@ class EnvConfig(BaseModel):
         try:
             return cls.model_validate(data)
         except ValidationError as exc:
-            raise ConfigError(describe_validation_error(exc, cls.__name__)) from None
+            raise ConfigError(describe_validation_error(exc, cls.__name__, cls)) from None

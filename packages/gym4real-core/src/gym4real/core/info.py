@@ -1,8 +1,14 @@
-"""``env_info``: what an installed environment is, where it comes from and what it registers."""
+"""``env_info``: what an installed environment is, where it comes from and what it registers.
+
+:func:`summary` adds what an instance shows (spaces, how an episode ends) and the evaluation protocol,
+for ``gym4real info`` (:func:`summary_text`, or JSON with ``--json``).
+"""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import inspect
+import textwrap
+from dataclasses import asdict, dataclass
 from typing import Any
 
 from gym4real.core.registry import domain_of, env_spec, registry
@@ -49,3 +55,97 @@ def env_info(env_id: str) -> EnvInfo:
         trainings=tuple(sorted(f"{a}/{p}" for (e, a, p) in reg.trainings if e == env_id)),
         extra=extra,
     )
+
+
+def docstring_section(doc: str, title: str) -> str:
+    """The text of a ``## <title>`` section of a Gymnasium-style env docstring, on one line ('' if absent)."""
+    lines = inspect.cleandoc(doc).splitlines()
+    heading = f"## {title}".lower()
+    start = next((i + 1 for i, line in enumerate(lines) if line.strip().lower() == heading), None)
+    if start is None:
+        return ""
+    end = next((i for i in range(start, len(lines)) if lines[i].startswith("## ")), len(lines))
+    return " ".join(" ".join(lines[start:end]).split())
+
+
+def env_interface(env_id: str) -> dict[str, Any]:
+    """What an instance of the env (default preset) shows: its spaces, time limit and how an episode ends.
+
+    Raises:
+        Gym4RealError: The env cannot be made (a missing data file, a missing dependency): its error.
+    """
+    import gymnasium as gym
+
+    env = gym.make(env_id)
+    try:
+        out: dict[str, Any] = {
+            "observation_space": str(env.observation_space),
+            "action_space": str(env.action_space),
+        }
+        if env.spec is not None and env.spec.max_episode_steps is not None:
+            out["max_episode_steps"] = env.spec.max_episode_steps
+        if env.has_wrapper_attr("reward_space"):
+            out["reward_space"] = str(env.get_wrapper_attr("reward_space"))
+        out["episode_end"] = docstring_section(type(env.unwrapped).__doc__ or "", "Episode End")
+    finally:
+        env.close()
+    return out
+
+
+def summary(env_id: str) -> dict[str, Any]:
+    """Everything ``gym4real info`` shows, as plain JSON-ready data (the interface's error if it cannot be made)."""
+    record: dict[str, Any] = asdict(env_info(env_id))
+    protocol = registry().benchmarks.get(env_id)
+    if protocol is not None:
+        record["benchmark"] = {
+            "description": protocol.description,
+            "policies": list(protocol.policies),
+            "objective": list(protocol.objective),
+            "step_unit": protocol.step_unit,
+        }
+    try:
+        record["interface"] = env_interface(env_id)
+    except Exception as exc:  # a summary without the spaces beats no summary: say why they are missing
+        record["interface"] = {"error": " ".join(f"{type(exc).__name__}: {exc}".split())}
+    return record
+
+
+def _listing(names: list[str] | tuple[str, ...], most: int = 8) -> str:
+    shown = ", ".join(names[:most]) or "none"
+    return shown + (f", ... ({len(names)} in all)" if len(names) > most else "")
+
+
+def summary_text(record: dict[str, Any], width: int = 100) -> str:
+    """The :func:`summary` of an env as labelled lines, wrapped at ``width`` characters."""
+    flags = [f.replace("_", " ") for f, on in record["flags"].items() if on]
+    iface = record["interface"]
+    rows = [
+        ("distribution", f"{record['distribution']} {record['version']}"),
+        ("flags", ", ".join(flags) or "none"),
+    ]
+    if "error" in iface:
+        rows.append(("spaces", f"unavailable: the env could not be made ({iface['error']})"))
+    else:
+        rows += [("observation", iface["observation_space"]), ("action", iface["action_space"])]
+        rows.append(("reward", iface.get("reward_space", "a float")))
+        steps = f" (time limit {iface['max_episode_steps']} steps)" if "max_episode_steps" in iface else ""
+        rows.append(("episode end", (iface["episode_end"] or "see the env's docstring") + steps))
+    rows.append(("presets", f"{', '.join(record['presets'])} (default: {record['presets'][0]})"))
+    rows.append(("baselines", _listing(record["baselines"])))
+    if "benchmark" in record:
+        bench = record["benchmark"]
+        text = f"{bench['description']}; policies {', '.join(bench['policies'])}; one step = one {bench['step_unit']}"
+        if bench["objective"]:
+            text += f"; objective {' + '.join(bench['objective'])}"
+        rows.append(("benchmark", text))
+    rows.append(("training", _listing(record["trainings"])))
+    domain = record["id"].split("/", 1)[-1].split("-", 1)[0]
+    rows.append(("datasets", f"{_listing(record['datasets'], 4)} (`gym4real data list {domain}`)"))
+    rows += [(str(key), str(value)) for key, value in record["extra"].items()]
+    label = max(len(k) for k, _ in rows) + 2
+    lines = [f"{record['id']}: {record['description']}"]
+    for key, value in rows:
+        lines += textwrap.wrap(
+            value, width, initial_indent=f"{key:<{label}}", subsequent_indent=" " * label, break_on_hyphens=False
+        )
+    return "\n".join(lines)

@@ -115,4 +115,6 @@ def load_preset(env_id: str, algo: str, preset: str) -> dict[str, Any]:
     try:
         return schema.model_validate(data).model_dump()
     except ValidationError as exc:
-        raise ConfigError(f"training preset `{source}`: {describe_validation_error(exc, schema.__name__)}") from None
+        raise ConfigError(
+            f"training preset `{source}`: {describe_validation_error(exc, schema.__name__, schema)}"
+        ) from None
