@@ -165,7 +165,9 @@ def docs(session: nox.Session) -> None:
     )
     figures = ROOT / "results" / "docs"
     env = ENV | _data_env(session)
-    ids = session.run("python", "-c", "import gym4real; print(*gym4real.list_envs())", silent=True, env=env)
+    ids = session.run(
+        "python", "-c", "import gym4real; print(*gym4real.list_envs(multi_objective=False))", silent=True, env=env
+    )
     for env_id in str(ids).split():
         out = figures / env_id.replace("/", "_")
         session.run("gym4real", "bench", env_id, "--episodes", "3", "--out", str(out), "--quiet", env=env)

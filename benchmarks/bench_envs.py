@@ -111,7 +111,7 @@ def main() -> None:
     parser.add_argument("--kwargs", default="{}", help="JSON make() kwargs applied to every env")
     parser.add_argument("--json", help="also write the rows to this JSON file")
     args = parser.parse_args()
-    ids = [i for i in args.ids.split(",") if i] or gym4real.list_envs()
+    ids = [i for i in args.ids.split(",") if i] or gym4real.list_envs(multi_objective=False)
     rows = [bench_env(i, args.repeats, args.budget, json.loads(args.kwargs)) for i in ids]
     cols = [
         "env",

@@ -181,12 +181,12 @@ def main() -> None:
     shutil.rmtree(out, ignore_errors=True)
     out.mkdir()
     index = ["# Environments", "", "| id | description |", "|---|---|"]
-    for env_id in gym4real.list_envs():
+    for env_id in gym4real.list_envs(multi_objective=False):
         name = env_id.replace("/", "_") + ".md"
         (out / name).write_text(page(env_id, args.figures, args.gif_steps if args.gifs else None, args.reproduction))
         index.append(f"| [`{env_id}`]({name}) | {registry().envs[env_id].description} |")
     (out / "index.md").write_text("\n".join(index) + "\n")
-    print(f"wrote {len(gym4real.list_envs())} environment pages to {out}")
+    print(f"wrote {len(index) - 4} environment pages to {out}")
 
 
 if __name__ == "__main__":

@@ -22,8 +22,9 @@ import pandas as pd
 from gym4real.core import stats
 from gym4real.core.errors import ConfigError
 from gym4real.core.policies import load_object, make_policy
-from gym4real.core.registry import env_spec, registry
+from gym4real.core.registry import base_env, env_spec, registry
 from gym4real.core.specs import BenchmarkSpec
+from gym4real.wrappers.multi_objective import MultiObjective
 
 PolicyRef = str | Callable[[Any], Any]
 
@@ -78,6 +79,7 @@ class BenchmarkResult:
     final_info: dict[str, dict[str, list[float]]] = field(default_factory=dict)
     objective: tuple[str, ...] = ()
     step_unit: str = "step"
+    objectives: tuple[str, ...] = ()  # a vector-reward id's reward entries, in order: one table column each
 
     @property
     def labels(self) -> dict[str, str]:
@@ -119,6 +121,7 @@ class BenchmarkResult:
         cols = ["episodes", "mean", "std", "iqm", "ci95_low", "ci95_high"]
         if self.objective:
             cols.append("objective_mean")
+        cols += [f"{o}_mean" for o in self.objectives]
         frame = self.summary()[cols]
         numbers = frame.drop(columns="episodes").to_numpy(dtype=float).ravel().tolist()
         notes = [
@@ -128,6 +131,9 @@ class BenchmarkResult:
             notes.append(
                 f"objective_mean: mean per-episode sum of {' + '.join(self.objective)} (the paper's objective)"
             )
+        if self.objectives:
+            names = ", ".join(f"{o}_mean" for o in self.objectives)
+            notes.append(f"{names}: mean per-episode sum of each entry of the vector reward")
         fewest = int(frame["episodes"].min()) if len(frame) else 0
         if fewest < FEW_EPISODES:
             notes.append(
@@ -174,7 +180,7 @@ class BenchmarkResult:
         }
         written[2].write_text(json.dumps(record, indent=1))
         written += plots.save_figures(self, out)
-        spec = registry().benchmarks.get(self.env_id)
+        spec = registry().benchmarks.get(base_env(self.env_id))
         if spec is not None and spec.figures:
             written += list(load_object(spec.figures)(self, out))
         return written
@@ -190,8 +196,8 @@ def seeded_episodes(n: int, seed: int = 0) -> list[dict[str, Any]]:
 
 
 def protocol(env_id: str) -> BenchmarkSpec:
-    """Return the registered evaluation protocol of an environment."""
-    spec = registry().benchmarks.get(env_id)
+    """Return the registered evaluation protocol of an environment (a vector-reward variant: its env's)."""
+    spec = registry().benchmarks.get(base_env(env_id))
     if spec is None:
         raise ConfigError(f'`{env_id}` registers no evaluation protocol; pass `episodes=N` instead of "test"')
     return spec
@@ -208,6 +214,7 @@ def run_episode(
     """Run one episode; return its per-step rewards, component sums and final ``info`` values.
 
     ``observer(step, return_so_far)``, if given, is called after the reset (step 0) and after each step.
+    The reward of a vector-reward env is its ``info["scalar_reward"]``; its entries are the components.
     """
     reset = getattr(policy, "reset", None)
     if reset is not None:
@@ -221,7 +228,7 @@ def run_episode(
         observer(0, total)
     while not done:
         obs, reward, terminated, truncated, info = env.step(policy(obs))
-        rewards.append(float(reward))
+        rewards.append(float(info.get("scalar_reward", reward)))
         if observer is not None:
             total += rewards[-1]
             observer(len(rewards), total)
@@ -254,7 +261,8 @@ def benchmark(
         out: If given, write the results and figures there.
     """
     env_spec(env_id)  # a clear error for an unknown or unavailable id
-    spec = registry().benchmarks.get(env_id)
+    base = base_env(env_id)  # a vector-reward variant is benchmarked on its env's protocol and baselines
+    spec = registry().benchmarks.get(base)
     kwargs: dict[str, Any] = dict(env_kwargs or {})
     if episodes == "test":
         kwargs = {**protocol(env_id).env_kwargs, **kwargs}
@@ -264,7 +272,7 @@ def benchmark(
     else:
         raise ConfigError(f'`episodes` must be "test" or a positive int, not {episodes!r}')
     if not policies:
-        policies = list(spec.policies) if spec and spec.policies else sorted(registry().baselines.get(env_id, {}))
+        policies = list(spec.policies) if spec and spec.policies else sorted(registry().baselines.get(base, {}))
     result = BenchmarkResult(
         env_id, plan, objective=spec.objective if spec else (), step_unit=spec.step_unit if spec else "step"
     )
@@ -279,7 +287,10 @@ def benchmark(
             name = policy_name(ref)
             env = gym.make(env_id, **kwargs)
             try:
-                policy = make_policy(env_id, ref, env)
+                acting: gym.Env[Any, Any] = env
+                if isinstance(env.unwrapped, MultiObjective):  # entries reported; baselines act on the env it wraps
+                    result.objectives, acting = env.unwrapped.components, env.unwrapped.env
+                policy = make_policy(base, ref, acting)
                 runs = []
                 for ep in plan:
                     runs.append(run_episode(env, policy, ep.get("seed"), ep.get("options"), final_keys))

@@ -11,7 +11,9 @@ import textwrap
 from dataclasses import asdict, dataclass
 from typing import Any
 
-from gym4real.core.registry import domain_of, env_spec, registry
+import numpy as np
+
+from gym4real.core.registry import base_env, domain_of, env_spec, registry
 from gym4real.core.specs import FLAGS
 
 
@@ -51,7 +53,7 @@ def env_info(env_id: str) -> EnvInfo:
         flags={f: f in spec.flags for f in FLAGS},
         presets=spec.presets,
         datasets=spec.datasets,
-        baselines=tuple(sorted(reg.baselines.get(env_id, {}))),
+        baselines=tuple(sorted(reg.baselines.get(base_env(env_id), {}))),
         trainings=tuple(sorted(f"{a}/{p}" for (e, a, p) in reg.trainings if e == env_id)),
         extra=extra,
     )
@@ -68,6 +70,16 @@ def docstring_section(doc: str, title: str) -> str:
     return " ".join(" ".join(lines[start:end]).split())
 
 
+def space_text(space: Any) -> str:
+    """A space as ``str()`` gives it, a long Box by its bounds' range: ``Box(-33.5..254, (27,), float32)``."""
+    import gymnasium as gym
+
+    if isinstance(space, gym.spaces.Box) and space.shape and int(np.prod(space.shape)) > 6:
+        varied = "; bounds vary by entry" if np.ptp(space.low) > 0 or np.ptp(space.high) > 0 else ""
+        return f"Box({space.low.min():g}..{space.high.max():g}, {space.shape}, {space.dtype}{varied})"
+    return str(space)
+
+
 def env_interface(env_id: str) -> dict[str, Any]:
     """What an instance of the env (default preset) shows: its spaces, time limit and how an episode ends.
 
@@ -79,14 +91,15 @@ def env_interface(env_id: str) -> dict[str, Any]:
     env = gym.make(env_id)
     try:
         out: dict[str, Any] = {
-            "observation_space": str(env.observation_space),
-            "action_space": str(env.action_space),
+            "observation_space": space_text(env.observation_space),
+            "action_space": space_text(env.action_space),
         }
         if env.spec is not None and env.spec.max_episode_steps is not None:
             out["max_episode_steps"] = env.spec.max_episode_steps
         if env.has_wrapper_attr("reward_space"):
             out["reward_space"] = str(env.get_wrapper_attr("reward_space"))
-        out["episode_end"] = docstring_section(type(env.unwrapped).__doc__ or "", "Episode End")
+        inner = getattr(env.unwrapped, "env", env).unwrapped  # a vector-reward variant's episodes are its env's
+        out["episode_end"] = docstring_section(type(inner).__doc__ or "", "Episode End")
     finally:
         env.close()
     return out
@@ -95,7 +108,7 @@ def env_interface(env_id: str) -> dict[str, Any]:
 def summary(env_id: str) -> dict[str, Any]:
     """Everything ``gym4real info`` shows, as plain JSON-ready data (the interface's error if it cannot be made)."""
     record: dict[str, Any] = asdict(env_info(env_id))
-    protocol = registry().benchmarks.get(env_id)
+    protocol = registry().benchmarks.get(base_env(env_id))
     if protocol is not None:
         record["benchmark"] = {
             "description": protocol.description,

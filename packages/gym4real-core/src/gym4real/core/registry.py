@@ -93,6 +93,7 @@ class Registry:
     distributions: dict[str, tuple[str, str]] = field(default_factory=dict)  # plugin -> (dist, version)
     errors: list[PluginError] = field(default_factory=list)
     rejected: dict[str, str] = field(default_factory=dict)  # env id of a plugin that was not registered -> plugin
+    multi_objective: dict[str, str] = field(default_factory=dict)  # vector-reward id -> the env it wraps
 
 
 Record = EnvSpec | DatasetSpec | BaselineSpec | BenchmarkSpec | TrainingSpec
@@ -336,7 +337,32 @@ def _discover() -> Registry:
     for plugin, recs in records.items():
         for rec in recs if plugin not in clashing else ():
             _add(reg, plugin, rec)
+    _add_multi_objective(reg)
     return reg
+
+
+def _add_multi_objective(reg: Registry) -> None:
+    """Add the vector-reward variant (``gym4real/dam-mo-v0``) of each env flagged multi-objective, owned by its plugin.
+
+    A variant has the env's presets and data, and the reward components as its vector reward (see
+    :class:`gym4real.wrappers.MultiObjective`); an id a plugin registers itself is left to it.
+    """
+    for spec in [s for s in reg.envs.values() if "multi_objective" in s.flags]:
+        name, _, version = spec.id.rpartition("-v")
+        mo_id = f"{name}-mo-v{version}"
+        if mo_id in reg.envs:
+            continue
+        reg.envs[mo_id] = EnvSpec(
+            id=mo_id,
+            entry_point=MULTI_OBJECTIVE,
+            description=f"multi-objective {spec.id}: a vector reward, one entry per reward component",
+            flags=spec.flags,
+            presets=spec.presets,
+            datasets=spec.datasets,
+            kwargs={"env": spec.id, **spec.kwargs},
+        )
+        reg.owners[mo_id] = reg.owners[spec.id]
+        reg.multi_objective[mo_id] = spec.id
 
 
 @functools.cache
@@ -384,9 +410,21 @@ def installed_distributions() -> list[tuple[str, str]]:
     return sorted(found.items(), key=lambda item: (item[0] != "gym4real-core", item[0]))
 
 
-def list_envs(*, strict: bool | None = None) -> list[str]:
-    """Return the sorted ids of every installed environment (never raises for a plugin unless strict)."""
-    return sorted(registry(strict=strict).envs)
+def list_envs(*, strict: bool | None = None, multi_objective: bool = True) -> list[str]:
+    """Return the sorted ids of every installed environment (never raises for a plugin unless strict).
+
+    Args:
+        strict: Raise :class:`PluginLoadError` if a plugin failed; defaults to ``GYM4REAL_STRICT_PLUGINS``.
+        multi_objective: Include the vector-reward variants (``gym4real/dam-mo-v0``; see
+            ``registry().multi_objective``).
+    """
+    reg = registry(strict=strict)
+    return sorted(i for i in reg.envs if multi_objective or i not in reg.multi_objective)
+
+
+def base_env(env_id: str) -> str:
+    """The env a vector-reward variant wraps (``gym4real/dam-mo-v0`` -> ``gym4real/dam-v0``); any other id itself."""
+    return registry().multi_objective.get(env_id, env_id)
 
 
 def domain_of(env_id: str) -> str:
@@ -430,21 +468,18 @@ def register_envs() -> list[str]:
 
     done = []
 
-    def register(env_id: str, entry_point: str, kwargs: dict[str, Any], spec: EnvSpec | None = None) -> None:
-        old = gymnasium.registry.get(env_id)
-        if old is None or old.entry_point != entry_point or old.kwargs != kwargs:
+    reg = registry()
+    for spec in reg.envs.values():
+        old = gymnasium.registry.get(spec.id)
+        if old is None or old.entry_point != spec.entry_point or old.kwargs != dict(spec.kwargs):
             gymnasium.register(
-                id=env_id,
-                entry_point=entry_point,
-                kwargs=kwargs,
-                max_episode_steps=spec.max_episode_steps if spec else None,
-                vector_entry_point=spec.vector_entry_point if spec else None,
+                id=spec.id,
+                entry_point=spec.entry_point,
+                kwargs=dict(spec.kwargs),
+                max_episode_steps=spec.max_episode_steps,
+                vector_entry_point=spec.vector_entry_point,
+                # Gymnasium's passive checker wants a float reward: vector-reward ids skip it, as MO-Gymnasium's do
+                disable_env_checker=spec.id in reg.multi_objective,
             )
-            done.append(env_id)
-
-    for spec in registry().envs.values():
-        register(spec.id, spec.entry_point, dict(spec.kwargs), spec)
-        if "multi_objective" in spec.flags:  # the paper's MORL envs also get a vector-reward id
-            name, _, version = spec.id.rpartition("-v")
-            register(f"{name}-mo-v{version}", MULTI_OBJECTIVE, {"env": spec.id, **spec.kwargs})
+            done.append(spec.id)
     return done

@@ -41,7 +41,8 @@ def check_contract(env_id: str, steps: int = 50, seeded: bool = True, **kwargs: 
     """The contract of every Gym4ReaL env.
 
     Gymnasium's ``check_env``; same seed, same trajectory; a fresh env survives a pickle round-trip;
-    ``env.spec`` round-trips through JSON; ``info["reward_components"]`` sums to the reward.
+    ``env.spec`` round-trips through JSON; ``info["reward_components"]`` sums to the reward (to the sum of a
+    vector reward).
 
     Args:
         env_id: The registered id.
@@ -65,7 +66,8 @@ def check_contract(env_id: str, steps: int = 50, seeded: bool = True, **kwargs: 
         for _ in range(steps):
             _, reward, terminated, truncated, info = env.step(env.action_space.sample())
             comps = info["reward_components"]
-            assert np.isclose(sum(comps.values()), float(reward), rtol=1e-9, atol=1e-9), (comps, reward)
+            total = float(np.sum(reward))  # a vector reward (multi-objective ids) sums to the scalar one
+            assert np.isclose(sum(comps.values()), total, rtol=1e-9, atol=1e-9), (comps, reward)
             if terminated or truncated:
                 break
     finally:
