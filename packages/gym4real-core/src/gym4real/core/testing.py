@@ -66,7 +66,7 @@ def check_contract(env_id: str, steps: int = 50, seeded: bool = True, **kwargs: 
         for _ in range(steps):
             _, reward, terminated, truncated, info = env.step(env.action_space.sample())
             comps = info["reward_components"]
-            total = float(np.sum(reward))  # a vector reward (multi-objective ids) sums to the scalar one
+            total = float(np.sum(np.asarray(reward)))  # a vector reward (multi-objective ids) sums to the scalar one
             assert np.isclose(sum(comps.values()), total, rtol=1e-9, atol=1e-9), (comps, reward)
             if terminated or truncated:
                 break
