@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 from pydantic import ConfigDict, Field, ValidationError
 
-from gym4real.core.config import EnvConfig, describe_validation_error, merge
+from gym4real.core.config import EnvConfig, PresetRenamedWarning, describe_validation_error, merge
 from gym4real.core.errors import ConfigError
 
 
@@ -98,3 +98,13 @@ def test_a_mistyped_nested_field_is_matched_within_its_section() -> None:
         Demo.model_validate({"reward": {"tradin": 2.0}})
     message = describe_validation_error(err.value, "Demo", Demo)
     assert message == "invalid Demo: unknown field `reward.tradin` (did you mean `reward.trading`?)"
+
+
+def test_a_renamed_preset_still_works_for_a_release_and_names_its_new_name(demo_config) -> None:
+    class Renamed(demo_config):  # type: ignore[misc, valid-type]
+        preset_aliases = {"paper_test": "test"}
+
+    with pytest.warns(PresetRenamedWarning, match="preset `paper_test` of Renamed is now called `test`"):
+        assert Renamed.build(preset="paper_test") == Renamed.build(preset="test")
+    with pytest.raises(ConfigError, match="unknown preset `paper_tset`"):
+        Renamed.build(preset="paper_tset")

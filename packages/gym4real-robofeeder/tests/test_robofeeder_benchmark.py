@@ -6,12 +6,13 @@ from pathlib import Path
 
 from gym4real.core.benchmark import benchmark
 from gym4real.robofeeder import figures
+from gym4real.robofeeder.evaluation import planning_test_episodes
 from gym4real.robofeeder.evaluation import test_episodes as protocol
 
 
 def test_protocol_sizes() -> None:
     assert len(protocol({"preset": "test"})) == 100
-    plan = protocol({"preset": "planning_test"})
+    plan = planning_test_episodes({"preset": "test"})
     assert len(plan) == 50 and plan[0] == {"seed": 1000, "options": None}
 
 

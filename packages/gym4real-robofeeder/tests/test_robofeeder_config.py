@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 
+from gym4real.core.config import PresetRenamedWarning
 from gym4real.core.errors import ConfigError
 from gym4real.core.registry import registry
 from gym4real.robofeeder.config import FIX_NAMES, PickingConfig, PlanningConfig
@@ -11,11 +12,17 @@ from gym4real.robofeeder.config import FIX_NAMES, PickingConfig, PlanningConfig
 
 def test_presets_are_split_by_family() -> None:
     assert PickingConfig.presets() == ["default", "test"]
-    assert PlanningConfig.presets() == ["planning", "planning_test"]
+    assert PlanningConfig.presets() == ["default", "test"]
     assert PlanningConfig.build().n_objects == 3 and PlanningConfig.build().max_steps == 5
     assert PickingConfig.build().n_objects == 1 and PickingConfig.build().max_steps == 2
     with pytest.raises(ConfigError, match="unknown preset"):
-        PlanningConfig.build(preset="default")
+        PickingConfig.build(preset="planning_test")
+
+
+def test_the_former_planning_preset_names_warn_and_name_the_new_ones() -> None:
+    for old, new in (("planning", "default"), ("planning_test", "test")):
+        with pytest.warns(PresetRenamedWarning, match=f"preset `{old}` of PlanningConfig is now called `{new}`"):
+            assert PlanningConfig.build(preset=old) == PlanningConfig.build(preset=new)
 
 
 def test_fixes_follow_fidelity_unless_set() -> None:

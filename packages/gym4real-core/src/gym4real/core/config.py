@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import difflib
 import reprlib
+import warnings
 from collections.abc import Mapping
 from importlib import resources
 from pathlib import Path
@@ -21,6 +22,10 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from gym4real.core.errors import ConfigError, Gym4RealError
 
 Fidelity = Literal["corrected", "upstream"]
+
+
+class PresetRenamedWarning(FutureWarning):
+    """A preset was asked for by its former name (kept for one release)."""
 
 
 #: Most values a YAML file may hold once its aliases are expanded (a config has tens; "billion laughs" has 10**9).
@@ -170,13 +175,19 @@ class EnvConfig(BaseModel):
     """Base of every environment's configuration (frozen, unknown keys rejected).
 
     Subclasses set ``presets_package``, the package whose ``presets/<name>.yaml`` files are the
-    named presets, and ``default_preset``. Every float is finite, as in :class:`ConfigSection`.
+    named presets (``presets_folder`` names another folder of it), and ``default_preset``. Preset
+    names follow one scheme: the split names ``train``, ``validation`` and ``test`` where the env has
+    splits, ``default`` for the default. ``preset_aliases`` maps a former name to its new one: it is
+    accepted for one release with a :class:`PresetRenamedWarning`. Every float is finite, as in
+    :class:`ConfigSection`.
     """
 
     model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True, allow_inf_nan=False)
 
     presets_package: ClassVar[str] = ""
+    presets_folder: ClassVar[str] = "presets"
     default_preset: ClassVar[str] = "default"
+    preset_aliases: ClassVar[dict[str, str]] = {}
 
     fidelity: Fidelity = Field(
         "corrected",
@@ -187,14 +198,31 @@ class EnvConfig(BaseModel):
     )
 
     @classmethod
+    def _presets_dir(cls) -> resources.abc.Traversable:
+        folder = resources.files(cls.presets_package)
+        for part in cls.presets_folder.split("/"):
+            folder = folder / part
+        return folder
+
+    @classmethod
     def presets(cls) -> list[str]:
         """Return the names of the packaged presets."""
-        folder = resources.files(cls.presets_package) / "presets"
-        return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".yaml"))
+        return sorted(p.name[:-5] for p in cls._presets_dir().iterdir() if p.name.endswith(".yaml"))
 
     @classmethod
     def preset(cls, name: str) -> dict[str, Any]:
-        """Return the raw fields of a packaged preset (a name, never a path: a file is passed as ``config``)."""
+        """Return the raw fields of a packaged preset (a name, never a path: a file is passed as ``config``).
+
+        A former name (``preset_aliases``) warns and gives its new one's fields.
+        """
+        if isinstance(name, str) and name in cls.preset_aliases:
+            new = cls.preset_aliases[name]
+            warnings.warn(
+                f"preset `{name}` of {cls.__name__} is now called `{new}`; the old name goes in the next release",
+                PresetRenamedWarning,
+                stacklevel=3,
+            )
+            name = new
         if not isinstance(name, str) or name not in cls.presets():
             shown = f"`{name}`" if isinstance(name, str) and len(name) <= MAX_QUOTED else quote(name)
             msg = f"unknown preset {shown} for {cls.__name__}; expected one of {cls.presets()}"
@@ -204,7 +232,7 @@ class EnvConfig(BaseModel):
                 shown_file = repr(file) if len(file) <= MAX_PATH_QUOTED else "PATH.yaml"
                 msg += f"; a preset is a name: pass a YAML file as `config={shown_file}`"
             raise ConfigError(msg)
-        return read_yaml(resources.files(cls.presets_package) / "presets" / f"{name}.yaml", "preset")
+        return read_yaml(cls._presets_dir() / f"{name}.yaml", "preset")
 
     @classmethod
     def build(

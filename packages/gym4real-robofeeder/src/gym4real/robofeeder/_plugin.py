@@ -101,7 +101,7 @@ def gym4real_register_envs() -> list[EnvSpec]:
             entry_point="gym4real.robofeeder.planning:RoboFeederPlanningEnv",
             description="MuJoCo robot cell: choose which of N detected hinges a pretrained picking agent grasps next",
             flags=_FLAGS,
-            presets=("planning", "planning_test"),
+            presets=("default", "test"),
             datasets=(*MODEL_DATASETS, PICKING_AGENT),
             max_episode_steps=5,
             info_provider=info,
@@ -194,8 +194,8 @@ def gym4real_register_benchmarks() -> list[BenchmarkSpec | TrainingSpec]:
     ]
     planning = BenchmarkSpec(
         env_id=PLANNING_V0,
-        protocol="gym4real.robofeeder.evaluation:test_episodes",
-        env_kwargs={"preset": "planning_test"},
+        protocol="gym4real.robofeeder.evaluation:planning_test_episodes",
+        env_kwargs={"preset": "test"},
         policies=("random", "oracle"),
         final_info=("objects_picked",),
         figures="gym4real.robofeeder.figures:bench_planning",

@@ -111,7 +111,6 @@ class RoboFeederConfig(EnvConfig):
     """Parameters shared by the RoboFeeder environments."""
 
     presets_package = "gym4real.robofeeder"
-    preset_prefix: ClassVar[str] = ""
 
     image_size: int = Field(300, ge=64, le=1024, description="Camera image width = height (px).")
     n_objects: int = Field(1, ge=1, le=8, description="Objects in the bin.")
@@ -149,14 +148,6 @@ class RoboFeederConfig(EnvConfig):
         value = getattr(self.fixes, name)
         return self.fidelity == "corrected" if value is None else bool(value)
 
-    @classmethod
-    def presets(cls) -> list[str]:
-        """The packaged presets of this environment family."""
-        names = super().presets()
-        if cls.preset_prefix:
-            return [n for n in names if n.startswith(cls.preset_prefix)]
-        return [n for n in names if not n.startswith(PlanningConfig.preset_prefix)]
-
     @model_validator(mode="after")
     def _consistent(self) -> Self:
         for name, (lo, hi) in (("spawn.x_range", self.spawn.x_range), ("spawn.y_range", self.spawn.y_range)):
@@ -179,8 +170,8 @@ class PickingConfig(RoboFeederConfig):
 class PlanningConfig(RoboFeederConfig):
     """Validated parameters of the planning environment."""
 
-    preset_prefix: ClassVar[str] = "planning"
-    default_preset: ClassVar[str] = "planning"
+    presets_folder: ClassVar[str] = "presets/planning"
+    preset_aliases: ClassVar[dict[str, str]] = {"planning": "default", "planning_test": "test"}
 
     n_objects: int = Field(3, ge=1, le=8, description="Objects in the bin.")
     max_steps: int = Field(5, ge=1, description="Steps per episode, T.")

@@ -11,7 +11,10 @@ PLANNING_EPISODES = 50
 
 
 def test_episodes(env_kwargs: dict[str, Any]) -> list[dict[str, Any]]:
-    """Seeded evaluation episodes: 100 for picking (``preset="test"``), 50 for planning (``planning_test``)."""
-    planning = str(env_kwargs.get("preset", "")).startswith("planning")
-    n = PLANNING_EPISODES if planning else PICKING_EPISODES
-    return [{"seed": TEST_SEED + i, "options": None} for i in range(n)]
+    """The picking environments' seeded evaluation episodes (100)."""
+    return [{"seed": TEST_SEED + i, "options": None} for i in range(PICKING_EPISODES)]
+
+
+def planning_test_episodes(env_kwargs: dict[str, Any]) -> list[dict[str, Any]]:
+    """The planning environment's seeded evaluation episodes (50)."""
+    return [{"seed": TEST_SEED + i, "options": None} for i in range(PLANNING_EPISODES)]

@@ -170,7 +170,7 @@ def planning_returns(
     rows = []
     for name in policies:
         for n in objects:
-            env = gym.make(PLANNING_V0, **{"preset": "planning_test", **(env_kwargs or {}), "n_objects": n})
+            env = gym.make(PLANNING_V0, **{"preset": "test", **(env_kwargs or {}), "n_objects": n})
             try:
                 act = _policy(PLANNING_V0, name, env)
                 for seed in range(seeds):

@@ -55,7 +55,8 @@ class RoboFeederPlanningEnv(RoboFeederBaseEnv):
 
     ## Arguments
 
-    ``config`` / ``preset`` ("planning", "planning_test") / keyword overrides of :class:`PlanningConfig`;
+    ``config`` / ``preset`` ("default", "test"; formerly "planning", "planning_test") / keyword overrides
+    of :class:`PlanningConfig`;
     ``picking_policy``: any callable crop (1, 50, 50) -> (dx, dy, theta~) replacing the pretrained agent;
     ``render_mode="rgb_array"``. The corrected mode (see the picking envs) also runs the pretrained agent
     deterministically (its mean; ``agent_mode``) and clips its actions (``clip_agent_actions``); the
