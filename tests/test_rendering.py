@@ -12,22 +12,13 @@ from gymnasium.utils.env_checker import check_env
 from gymnasium.wrappers import RecordVideo
 
 import gym4real
-import gym4real.core.registry
 from gym4real.core.testing import assert_same_trace
 
 #: The vector reward of the multi-objective variants is on purpose; Gymnasium's checker remarks on it.
 pytestmark = pytest.mark.filterwarnings("ignore:.*reward returned by `step\\(\\)` must be a float:UserWarning")
 
-BASE_IDS = gym4real.list_envs()
-#: Every id and the vector-reward variant of each multi-objective one (as ``registry.register_envs`` names it).
-IDS = sorted(
-    BASE_IDS
-    + [
-        "{}-mo-v{}".format(*i.rsplit("-v", 1))
-        for i in BASE_IDS
-        if "multi_objective" in gym4real.core.registry.registry().envs[i].flags
-    ]
-)
+#: Every id, the vector-reward variant of each multi-objective one included.
+IDS = gym4real.list_envs()
 
 
 def test_every_multi_objective_variant_is_covered() -> None:
