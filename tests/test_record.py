@@ -40,8 +40,8 @@ def _expected_last_frame(
         obs, _ = env.reset(seed=seed)
         total, steps, done = 0.0, 0, False
         while not done:
-            obs, reward, terminated, truncated, _ = env.step(act(obs))
-            total += float(reward)
+            obs, reward, terminated, truncated, info = env.step(act(obs))
+            total += float(info.get("scalar_reward", reward))  # a vector-reward variant's caption is its scalar
             steps += 1
             done = terminated or truncated
         lines = (f"{env_id}  policy {label or policy}", f"seed {seed}  step {steps}  return {total:.6g}")

@@ -287,10 +287,9 @@ def benchmark(
             name = policy_name(ref)
             env = gym.make(env_id, **kwargs)
             try:
-                acting: gym.Env[Any, Any] = env
-                if isinstance(env.unwrapped, MultiObjective):  # entries reported; baselines act on the env it wraps
-                    result.objectives, acting = env.unwrapped.components, env.unwrapped.env
-                policy = make_policy(base, ref, acting)
+                if isinstance(env.unwrapped, MultiObjective):  # a vector reward: its entries are reported
+                    result.objectives = env.unwrapped.components
+                policy = make_policy(env_id, ref, env)
                 runs = []
                 for ep in plan:
                     runs.append(run_episode(env, policy, ep.get("seed"), ep.get("options"), final_keys))

@@ -15,7 +15,8 @@ from typing import Any, Protocol
 import gymnasium as gym
 
 from gym4real.core.errors import PolicyError
-from gym4real.core.registry import registry
+from gym4real.core.registry import base_env, registry
+from gym4real.wrappers.multi_objective import MultiObjective
 
 
 class Policy(Protocol):
@@ -76,15 +77,16 @@ MODEL_LOADERS: dict[str, str] = {
 
 
 def baseline_names(env_id: str) -> list[str]:
-    """Return the names of the baselines registered for an environment."""
-    return sorted(registry().baselines.get(env_id, {}))
+    """Return the names of the baselines registered for an environment (a vector-reward variant: its env's)."""
+    return sorted(registry().baselines.get(base_env(env_id), {}))
 
 
 def make_policy(env_id: str, policy: str | Callable[[Any], Any], env: gym.Env[Any, Any]) -> Callable[[Any], Any]:
     """Turn a policy reference into a callable policy.
 
     Args:
-        env_id: The environment's id (baselines are looked up under it).
+        env_id: The environment's id (baselines are looked up under it; a vector-reward variant such as
+            ``gym4real/dam-mo-v0`` uses the baselines of the env it wraps).
         policy: A baseline name (``longest_first``), a trained model as ``kind:path``
             (``ppo:runs/dam/model.zip``, ``qlearning:runs/elevator/qtable.npz``), or a callable.
         env: The environment the policy will act in.
@@ -94,6 +96,8 @@ def make_policy(env_id: str, policy: str | Callable[[Any], Any], env: gym.Env[An
     """
     if callable(policy):
         return policy
+    if isinstance(env.unwrapped, MultiObjective):  # same spaces; a baseline may read the env it acts in
+        env = env.unwrapped.env
     kind, sep, path = policy.partition(":")
     if sep:
         if kind not in MODEL_LOADERS:
@@ -102,7 +106,7 @@ def make_policy(env_id: str, policy: str | Callable[[Any], Any], env: gym.Env[An
             raise PolicyError(f"policy file `{path}` (from `{policy}`) does not exist")
         policy_from_file: Callable[[Any], Any] = load_object(MODEL_LOADERS[kind])(env, path)
         return policy_from_file
-    baselines = registry().baselines.get(env_id, {})
+    baselines = registry().baselines.get(base_env(env_id), {})
     if policy not in baselines:
         raise PolicyError(
             f"unknown policy `{policy}` for `{env_id}`; baselines: {sorted(baselines)}, or `ppo:PATH`, "
