@@ -180,7 +180,7 @@ def _build(cfg: TradingConfig, name: SplitName, proc: processing.Processed) -> S
     else:  # the reference: along the concatenated sessions of the kept days
         series, index = mid.ravel(), np.arange(mid.size).reshape(mid.shape)
     change = np.full(len(series), np.nan)
-    change[off:] = series[off:] / series[:-off] - 1.0
+    change[off:] = (series[off:] - series[:-off]) / series[:-off]  # the reference's expression, to the last bit
     at = index[..., None] - lags  # (n_days, n_bars, n_deltas)
     deltas = np.where(at >= 0, change[np.maximum(at, 0)], np.nan)
     deltas = np.nan_to_num(deltas, nan=0.0, posinf=0.0, neginf=0.0)
