@@ -51,9 +51,10 @@ def test_benchmark_reports_the_objective_beside_the_return() -> None:
         np.testing.assert_allclose(result.objective_values(name), objective, rtol=1e-12)
         assert len(result.final_info[name]["recorded_level_rmse"]) == 13
     summary = result.summary()
-    # the paper's ranking of the rule-based policies: EAD best, random worst on the full return
-    assert summary.loc["ead", "mean"] > summary.loc["mean", "mean"] > summary.loc["random", "mean"]
-    assert summary.loc["max", "overflow_mean"] == 0.0  # releasing the most never floods
+    # No ranking of the rule-based policies is asserted: the paper states none (Sec. "DamEnv" and the
+    # appendix "Experiment Details" only say that PPO beats them all and avoids overflows better), nor
+    # does the spec. On the objective above, the reference scores Max best, then EAD, then Mean; its
+    # per-year numbers are pinned by tests/golden/test_golden_dam.py.
     # the historical operators stay closest to the recorded levels
     rmse = summary["final_recorded_level_rmse_mean"]
     assert rmse.idxmin() == "historical" and rmse["historical"] < 0.1
