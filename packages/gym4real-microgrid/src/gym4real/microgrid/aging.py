@@ -65,7 +65,7 @@ class AgingParams:
 
     def temperature_stress(self, temp: float) -> float:
         """Temperature stress factor (temp in kelvin)."""
-        return math.exp(self.k_temp * (temp - self.temp_ref) * self.temp_ref / temp)
+        return math.exp(self.k_temp * (temp - self.temp_ref) * (self.temp_ref / temp))
 
     def dod_stress(self, dod: float) -> float:
         """Depth-of-discharge stress of one full cycle."""
@@ -161,7 +161,8 @@ class BolunAging:
             f_cal = 1.0
             for factor in p.calendar:
                 if factor == "time":
-                    f_cal *= p.k_t * (elapsed - dt if k else -1.0)
+                    # float32, as the reference's product of a float32 constant and an int time (NumPy 2)
+                    f_cal *= float(np.float32(p.k_t * (elapsed - dt if k else -1.0)))
                 elif factor == "soc":
                     f_cal *= p.soc_stress(self._mean_soc)
                 else:

@@ -103,6 +103,7 @@ class ParameterGrid:
     _cells: list[list[tuple[float, ...]]] = field(init=False, repr=False, compare=False)
     _temps32: list[float] = field(init=False, repr=False, compare=False)
     _socs32: list[float] = field(init=False, repr=False, compare=False)
+    _values32: list[list[tuple[float, float, float, float]]] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         nt, ns = len(self.temps), len(self.socs)
@@ -120,6 +121,8 @@ class ParameterGrid:
         # distances to these rounded coordinates.
         object.__setattr__(self, "_temps32", [float(np.float32(t)) for t in self.temps])
         object.__setattr__(self, "_socs32", [float(np.float32(s)) for s in self.socs])
+        values32 = np.asarray(self.values, dtype=np.float32).astype(np.float64)  # [parameter, temp, soc]
+        object.__setattr__(self, "_values32", [[tuple(v) for v in row] for row in values32.transpose(1, 2, 0).tolist()])
 
     @classmethod
     def from_tables(cls, tables: Sequence[dict[tuple[float, float], float]], sources: Sequence[str]) -> ParameterGrid:
@@ -196,12 +199,12 @@ class ParameterGrid:
 
         The reference passes Kelvin to these °C tables, so its linear interpolation is always outside
         the grid and its nearest-neighbour fallback returns the hottest column (40 °C) at the nearest
-        SoC grid point. On a rectilinear grid the nearest point is the nearest value on each axis.
+        SoC grid point. On a rectilinear grid the nearest point is the nearest value on each axis. The
+        values are rounded to float32, as the reference's interpolators hold them.
         """
         i = _nearest_index(self._temps32, temp)
         j = _nearest_index(self._socs32, soc)
-        v = self.values
-        return v[0][i][j], v[1][i][j], v[2][i][j], v[3][i][j]
+        return self._values32[i][j]
 
 
 def _nearest_index(axis: list[float], x: float) -> int:
