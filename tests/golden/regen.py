@@ -393,6 +393,30 @@ def _engine_version(env: Any) -> int:
     return int(v.value)
 
 
+def _parse_offsets(demand: Any, columns: list[str]) -> dict[str, dict[str, list[int]]]:
+    """Where the reference's reading of ``test1000.csv`` departs from the correctly rounded values.
+
+    The reference reads the profiles with pandas' default float parser, which is not correctly rounded:
+    per column, the hours whose multiplier differs and by how many ulps (the difference of the float64
+    bit patterns, parsed minus correctly rounded).
+    """
+    import numpy as np
+    import pandas as pd
+
+    path = Path(demand._data_path, demand._data_config["test"])
+    parsed = pd.read_csv(path, index_col=None)  # as WaterDemandPattern.draw_pattern reads it
+    lines = path.read_text().splitlines()
+    header = lines[0].split(",")
+    out = {}
+    for c in columns:
+        k = header.index(c)
+        exact = np.array([float(line.split(",")[k]) for line in lines[1:]])
+        ulps = parsed[c].to_numpy(dtype=np.float64).view(np.int64) - exact.view(np.int64)
+        hours = np.flatnonzero(ulps)
+        out[c] = {"hours": hours.tolist(), "ulps": ulps[hours].tolist()}
+    return out
+
+
 class _TankRule:
     """The benchmark notebook's 'Default' rule from the observation (the spec's working version).
 
@@ -414,7 +438,7 @@ class _TankRule:
 
 def wds(episodes_per_policy: int, epanet_lib: str | None) -> dict[str, Any]:
     import gymnasium as gym
-    import numpy as np
+    import pandas as pd
 
     from gym4real.envs.wds.utils import parameter_generator
 
@@ -449,19 +473,34 @@ def wds(episodes_per_policy: int, epanet_lib: str | None) -> dict[str, Any]:
                 print(name, episodes[-1], flush=True)
             baselines[name] = _columns(episodes)
 
-        # training draws (no options) from the constructor's global seed: bucket, week column, pattern
+        # the protocol's ten evaluation columns (the same for every policy: each env reseeds the global state)
         env = make(**evaluation)
+        columns = []
+        for _ in range(10):
+            with contextlib.redirect_stdout(io.StringIO()):
+                columns.append(str(env.reset(options={"is_evaluation": True})[1]["profile"].name))
+
+        # training draws (no options) from the constructor's global seed: bucket, file, week column, pattern
+        env = make(**evaluation)
+        demand = env.unwrapped._demand
         draws = []
         for _ in range(6):
             with contextlib.redirect_stdout(io.StringIO()):
                 env.reset()
-            demand = env.unwrapped._demand
+            pattern = demand.pattern
+            files = [
+                f
+                for f in demand._data_config["train"][demand.pattern_type]
+                if pattern.name in (df := pd.read_csv(demand._data_path + f, index_col=0))
+                and df[pattern.name].equals(pattern)
+            ]
             draws.append(
                 {
                     "bucket": str(demand.pattern_type),
-                    "column": str(demand.pattern.name),
-                    "first_values": _floats(demand.pattern.iloc[:6]),
-                    "sum": math.fsum(_floats(demand.pattern)),
+                    "files": files,
+                    "column": str(pattern.name),
+                    "first_values": _floats(pattern.iloc[:6]),
+                    "sum": math.fsum(_floats(pattern)),
                 }
             )
 
@@ -469,7 +508,7 @@ def wds(episodes_per_policy: int, epanet_lib: str | None) -> dict[str, Any]:
         env = make(**evaluation)
         with contextlib.redirect_stdout(io.StringIO()):
             obs, info = env.reset(options={"is_evaluation": True})
-        column = str(info["profile"].name)
+        pattern = info["profile"]
         actions = [3, 3, 2, 1, 0, 3, 2, 2, 1, 3, 0, 0, 3, 3, 3, 1, 2, 3]
         steps = [{"obs": _floats(obs)}]
         for a in actions:
@@ -484,20 +523,29 @@ def wds(episodes_per_policy: int, epanet_lib: str | None) -> dict[str, Any]:
                     pure={k: float(v) for k, v in info["pure_rewards"].items()},
                 )
             )
-    del np
     return {
-        "protocol": f"parameter_generator(hydraulic_step=3600, duration=604800, seed=1234); a fresh env per policy, "
-        f"{episodes_per_policy} episodes with reset(options={{'is_evaluation': True}}) (random test1000 columns from "
-        "the global NumPy state seeded by the constructor); components: per-episode sums of info['pure_rewards'] in "
-        "step order; return: fsum of the rewards (dsr - 0.25 overflow)",
+        "protocol": "parameter_generator(hydraulic_step=3600, duration=604800, seed=1234); a fresh env per policy, "
+        f"the first {episodes_per_policy} of the protocol's 10 episodes (all 10 take hours on two shared cores), "
+        "each reset(options={'is_evaluation': True}) (random test1000 columns from the global NumPy state seeded "
+        "by the constructor; evaluation_columns: all ten); default: the notebook's tank-level rule read from the "
+        "observation; components: per-episode sums of info['pure_rewards'] in step order; return: fsum of the "
+        "rewards (dsr - 0.25 overflow)",
         "versions": {
             **_versions("gymnasium", "numpy", "pandas", "epynet"),
             "epanet_engine": version,
             "epanet_library": epanet_lib or "vendored lib/libepanet.so",
         },
+        "evaluation_columns": columns,
+        "parsed_multipliers": _parse_offsets(
+            demand, sorted({str(pattern.name), *columns[:episodes_per_policy]}, key=int)
+        ),
         "baselines": baselines,
         "training_draws": {"settings": "same env, reset() without options, six times", "draws": draws},
-        "trajectory": {"test_column": column, "actions": actions, "steps": steps},
+        "trajectory": {
+            "test_column": str(pattern.name),
+            "actions": actions,
+            "steps": steps,
+        },
     }
 
 
@@ -543,7 +591,7 @@ def main() -> None:
     parser.add_argument("--domain", required=True, choices=DOMAINS)
     parser.add_argument("--commit", default="774d5ce", help="the reference commit, recorded in the fixture")
     parser.add_argument("--epanet-lib", help="wds: EPANET shared library to load instead of the vendored one")
-    parser.add_argument("--wds-episodes", type=int, default=10, help="wds: episodes per policy (protocol: 10)")
+    parser.add_argument("--wds-episodes", type=int, default=3, help="wds: episodes per policy (protocol: 10)")
     parser.add_argument("--out", type=Path, default=HERE, help="folder of the fixtures")
     args = parser.parse_args()
 
