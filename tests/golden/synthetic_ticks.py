@@ -13,8 +13,8 @@ The twelve monthly files of 2022 hold:
   and :59.999 (the last tick of a minute wins);
 * 12 January with a gap of 12 minutes (longer than the 5-minute forward-fill limit: the day is dropped);
 * a Sunday evening of ticks (8-9 January; weekends are not traded);
-* one tick at 03:00 on the first Monday of every other month (those days have no session data and are
-  dropped).
+* one tick at 03:00 on the first Monday of every other month and on 30 December, the last weekday (those
+  days have no session data and are dropped; the files cover the year).
 """
 
 from __future__ import annotations
@@ -75,7 +75,10 @@ def month_lines(month: int) -> list[str]:
     """The lines of the file of ``month`` (1-12) of 2022, in time order."""
     if month != 1:
         first_monday = next(dt.date(YEAR, month, d) for d in range(1, 8) if dt.date(YEAR, month, d).weekday() == 0)
-        return [_tick(first_monday, 3 * 3600, 0, 113_000 + month, 12)]
+        lines = [_tick(first_monday, 3 * 3600, 0, 113_000 + month, 12)]
+        if month == 12:  # the last weekday too: the quotes cover the year
+            lines.append(_tick(dt.date(YEAR, 12, 30), 3 * 3600, 0, 113_000, 12))
+        return lines
     rng, bid, lines = _Lcg(20220103), 113_042, []
     for d in SESSION_DAYS:
         day = dt.date(YEAR, 1, d)
