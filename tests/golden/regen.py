@@ -8,7 +8,8 @@ downloads, installs or copies the reference.
 
 Setup (outside this repository)::
 
-    git --git-dir=<mirror of Daveonwave/gym4ReaL> archive 774d5ce | tar -x -C /tmp/ref
+    # every file of commit 774d5ce into /tmp/ref (the snapshot lacks a few binary blobs: trained models,
+    # Q-tables, the detector; `git archive` stops at the first, so copy blob by blob and skip those)
     python3.12 -m venv /tmp/ref-venv
     /tmp/ref-venv/bin/pip install gymnasium==1.1.1 numpy==2.2.4 PyYAML==6.0.2 pandas==2.2.3 scipy==1.15.2 \\
         tqdm==4.67.1 rich==14.0.0 matplotlib==3.10.1 scikit-learn==1.6.1 epynet==1.1 pygame owa-epanet==2.3.5
@@ -20,8 +21,10 @@ a real folder, the reference writes ``anytown_map.rpt`` next to the network file
     /tmp/ref-venv/bin/python tests/golden/regen.py --reference /tmp/ref --domain dam
 
 WDS: ``--epanet-lib`` names the EPANET shared library the reference's vendored epynet loads instead of its
-own ``lib/libepanet.so`` (EPANET 2.2.0). The fixture uses owa-epanet's library (EPANET 2.3), the engine
-of our package, so that the comparison isolates the env's logic from the engine version.
+own ``lib/libepanet.so`` (EPANET 2.2.0). The fixture uses owa-epanet's library (EPANET 2.3.05, the engine
+of our package; ``/tmp/ref-venv/lib/python3.12/site-packages/epanet/libepanet2.so``), so that the
+comparison isolates the env's logic from the engine version. A WDS episode of the reference takes minutes:
+``--wds-episodes`` (default 3) runs the first episodes of the protocol for each policy.
 
 Trading: the reference ships no market data; both sides read the synthetic HistData tick files written
 by ``synthetic_ticks.py``.

@@ -140,6 +140,6 @@ def test_upstream_training_draws_follow_the_reference(golden: Callable[[str], di
         _, info = env.reset()
         _, bucket, stem, _ = info["profile"].split("/")
         assert (bucket, [f"{stem}.csv"]) == (ref["bucket"], ref["files"])
-        pattern = env.unwrapped._pattern  # the episode's multipliers
+        pattern = env.unwrapped._pattern  # the episode's multipliers; rtol: the reference's pandas parsing
         np.testing.assert_allclose(pattern[:6], ref["first_values"], rtol=1e-15, err_msg=f"week {ref['column']}")
         assert math.fsum(pattern) == pytest.approx(ref["sum"], rel=1e-14)
