@@ -9,7 +9,7 @@ The checkout is the reference at commit 774d5ce, already on disk; this script on
 (its simulator, ikpy planner and picking-v1 env). Note that the reference's simulator rewrites
 ``object_v2.xml`` inside the checkout (reference defect 3).
 
-What it records, for ``packages/gym4real-robofeeder/tests/test_robofeeder_golden.py``:
+What it records, for ``tests/golden/test_golden_robofeeder.py``:
 
 * ``grasp_grid``: one object placed at each of a few image points and yaws, settled as the reference's
   ``reset`` does (900 steps, then the one step of ``get_state``); then grasps commanded around the object's

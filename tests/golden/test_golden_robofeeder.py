@@ -34,8 +34,8 @@ import pytest
 import gym4real  # noqa: F401
 from gym4real.robofeeder.simulator import SAMPLES_PER_SEGMENT
 
-FIXTURE = Path(__file__).resolve().parents[3] / "tests" / "golden" / "robofeeder.json"
-GOLDEN = json.loads(FIXTURE.read_text())
+# Read at collection (the grasp grid parametrizes the tests), the same file the `golden` fixture reads.
+GOLDEN = json.loads((Path(__file__).resolve().parent / "robofeeder.json").read_text(encoding="utf-8"))
 SCENES = GOLDEN["grasp_grid"]
 
 
