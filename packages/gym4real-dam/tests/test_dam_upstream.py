@@ -139,7 +139,9 @@ def test_upstream_info_keeps_the_reference_keys() -> None:
     env.reset()
     action = np.array([100.0], dtype=np.float32)
     *_, info = env.step(action)
-    assert info["action"] is action  # the raw input, as the reference
+    # the raw input (not clipped nor cast), as the reference; a copy, so that infos never share an object
+    assert info["action"].dtype == action.dtype
+    np.testing.assert_array_equal(info["action"], action)
     assert set(info["pure_reward"]) == {
         "overflow_reward",
         "starving_reward",
@@ -148,3 +150,14 @@ def test_upstream_info_keeps_the_reference_keys() -> None:
         "clipping_reward",
     }
     assert info["reward"] == sum(info["weighted_reward"].values())
+
+
+def test_upstream_info_does_not_hold_the_callers_action_object() -> None:
+    """A policy that returns the same array every step (a constant baseline) must not make two infos share it."""
+    env = DamEnv(fidelity="upstream")
+    env.reset(seed=0)
+    action = np.array([50.0], dtype=np.float32)
+    first = env.step(action)[4]
+    second = env.step(action)[4]
+    assert first["action"] is not action and second["action"] is not first["action"]
+    np.testing.assert_array_equal(second["action"], action)

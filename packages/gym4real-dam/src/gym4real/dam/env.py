@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import math
 import random
 from collections.abc import Mapping
@@ -608,7 +609,7 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
             "level": level,
             "storage": storage,
             "release": release,
-            "action": action if self._upstream else a,
+            "action": copy.copy(action) if self._upstream else a,  # never the caller's object itself
             "raw_action": self._raw_action,
             "demand": demand,
             "inflow": inflow,
