@@ -180,3 +180,15 @@ def test_cli_info_is_a_readable_summary_and_json_on_request(capsys: pytest.Captu
     record = json.loads(capsys.readouterr().out)
     assert record["interface"]["action_space"] == "Discrete(3)"
     assert record["flags"]["provably_efficient"] is True
+
+
+def test_a_reader_that_goes_away_is_not_an_error() -> None:
+    """`gym4real list | head`: the closed pipe ends the command quietly, with no error line."""
+    child = subprocess.Popen(
+        [sys.executable, "-m", "gym4real.core.cli", "list"], stdout=subprocess.PIPE, stderr=subprocess.PIPE
+    )
+    assert child.stdout is not None and child.stderr is not None
+    child.stdout.close()  # before the child has imported anything, so its first write finds the pipe closed
+    err = child.stderr.read().decode()
+    assert child.wait(timeout=120) == 0
+    assert "Broken pipe" not in err and "error" not in err

@@ -251,6 +251,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     run: Callable[[argparse.Namespace], None] = args.run
     try:
         run(args)
+    except BrokenPipeError:  # the reader went away (`gym4real list | head`): nothing left to say
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # so that the exit flush is quiet
+        return 0
     except (Gym4RealError, OSError, ValueError, KeyError) as exc:
         if os.environ.get("GYM4REAL_DEBUG"):
             raise
