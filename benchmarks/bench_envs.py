@@ -18,6 +18,7 @@ from collections.abc import Callable
 from typing import Any
 
 import gymnasium as gym
+from report import report  # benchmarks/report.py (the script's folder is on sys.path)
 
 import gym4real
 
@@ -123,13 +124,7 @@ def main() -> None:
         "episode_steps",
         "raw_episode_s",
     ]
-    print(" | ".join(cols))
-    print(" | ".join("---" for _ in cols))
-    for r in rows:
-        print(" | ".join(f"{r[c]:.4g}" if isinstance(r[c], float) else str(r[c]) for c in cols))
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump(rows, f, indent=1)
+    report(rows, cols, 4, args.json)
 
 
 if __name__ == "__main__":

@@ -13,13 +13,13 @@ so their ``render()`` returns a copy of it; ``--camera angled_side_view`` times 
 from __future__ import annotations
 
 import argparse
-import json
 import statistics
 import time
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
+from report import report  # benchmarks/report.py (the script's folder is on sys.path)
 
 import gym4real
 
@@ -90,13 +90,7 @@ def main() -> None:
         kwargs = {"render_camera": args.camera} if args.camera and "robofeeder" in env_id else {}
         rows.append(bench(env_id, args.steps, args.repeats, kwargs))
     cols = ["env", "frame", "render_ms_median", "render_ms_p95", "step_us_none", "step_us_rgb_array"]
-    print(" | ".join(cols))
-    print(" | ".join("---" for _ in cols))
-    for r in rows:
-        print(" | ".join(f"{r[c]:.3g}" if isinstance(r[c], float) else str(r[c]) for c in cols))
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump(rows, f, indent=1)
+    report(rows, cols, 3, args.json)
 
 
 if __name__ == "__main__":

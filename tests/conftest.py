@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import importlib
+import importlib.util
 import os
 import sys
 import textwrap
 from collections.abc import Callable, Iterator
 from pathlib import Path
+from types import ModuleType
 
 import importlib_metadata
 import pytest
@@ -16,6 +18,21 @@ ROOT = Path(__file__).resolve().parents[1]
 os.environ.setdefault("GYM4REAL_DATA_DIR", str(ROOT.parent / "shared" / "data"))
 os.environ.setdefault("GYM4REAL_OFFLINE", "1")
 os.environ.setdefault("MUJOCO_GL", "egl")
+
+
+@pytest.fixture(scope="session")
+def load_script() -> Callable[[Path], ModuleType]:
+    """``load_script(path)``: import a Python file that is in no package (a script, a docs helper) as a module."""
+
+    def load(path: Path) -> ModuleType:
+        spec = importlib.util.spec_from_file_location(f"script_{path.stem}", path)
+        assert spec is not None and spec.loader is not None
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[spec.name] = module  # dataclasses of the script look their module up
+        spec.loader.exec_module(module)
+        return module
+
+    return load
 
 
 class FakeDistribution(importlib_metadata.Distribution):

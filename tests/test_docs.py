@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 import doctest
-import importlib.util
 import re
 import shutil
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from types import ModuleType
 
 import pytest
 from PIL import Image
@@ -53,17 +53,11 @@ def test_site_builds_strict_with_an_episode_gif_on_every_page(tmp_path: Path) ->
     assert (tmp_path / "site" / "index.html").exists()
 
 
-def _check_site() -> Any:
-    spec = importlib.util.spec_from_file_location("check_site", ROOT / "docs" / "check_site.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-def test_browser_check_reports_a_console_error_a_broken_image_and_an_empty_page(tmp_path: Path) -> None:
+def test_browser_check_reports_a_console_error_a_broken_image_and_an_empty_page(
+    tmp_path: Path, load_script: Callable[[Path], ModuleType]
+) -> None:
     pytest.importorskip("playwright", reason="the docs session installs Playwright")
-    check_site = _check_site()
+    check_site = load_script(ROOT / "docs" / "check_site.py")
     chromium = check_site.find_chromium(None)
     if chromium is None:
         pytest.skip(check_site.INSTALL)

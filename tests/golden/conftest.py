@@ -7,11 +7,11 @@ docstring for the setup and the versions each fixture records). The tests compar
 
 from __future__ import annotations
 
-import importlib.util
 import json
 from collections.abc import Callable
 from functools import cache
 from pathlib import Path
+from types import ModuleType
 from typing import Any
 
 import pytest
@@ -31,12 +31,9 @@ def golden() -> Callable[[str], dict[str, Any]]:
 
 
 @pytest.fixture(scope="session")
-def histdata_ticks(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def histdata_ticks(tmp_path_factory: pytest.TempPathFactory, load_script: Callable[[Path], ModuleType]) -> Path:
     """A folder with the synthetic HistData tick files of 2022 the trading fixture was made from."""
-    spec = importlib.util.spec_from_file_location("golden_synthetic_ticks", HERE / "synthetic_ticks.py")
-    assert spec is not None and spec.loader is not None
-    ticks = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(ticks)
+    ticks = load_script(HERE / "synthetic_ticks.py")
     folder = tmp_path_factory.mktemp("golden") / "histdata"
     ticks.write(folder)
     return folder
