@@ -28,7 +28,7 @@ IDS = gym4real.list_envs()
 @functools.cache
 def _env(env_id: str) -> gym.Env[Any, Any]:
     """One env per id for the whole module (robofeeder and wds take a while to build), reset once."""
-    env = gym4real.make(env_id, preset="planning_test" if "planning" in env_id else "test").unwrapped
+    env = gym4real.make(env_id, preset="test").unwrapped
     env.reset(seed=0)
     return env
 
@@ -74,7 +74,8 @@ def test_every_env_refuses_what_its_space_does_not_contain(env_id: str, data: st
     if isinstance(space, spaces.Discrete):
         action = data.draw(
             st.one_of(
-                st.integers().filter(lambda v: not space.contains(v)),
+                # outside [start, start + n), huge ints included (Discrete.contains overflows on them in gymnasium 1.2.2)
+                st.integers().filter(lambda v: not int(space.start) <= v < int(space.start) + int(space.n)),
                 st.floats(allow_nan=True, allow_infinity=True),
                 st.text(max_size=3),
                 st.complex_numbers(),
