@@ -118,10 +118,13 @@ def _cmd_train(args: argparse.Namespace) -> None:
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> None:
+    from gym4real.core.registry import list_envs
     from gym4real.core.rl.reproduce import reproduce
 
-    report = reproduce(args.env_id, preset=args.preset, seed=args.seed, out=args.out, progress=not args.quiet)
-    print(report)
+    if bool(args.env_ids) == args.all:
+        raise Gym4RealError("name the environments to reproduce, or pass --all (not both)")
+    env_ids = list_envs() if args.all else args.env_ids
+    print(reproduce(env_ids, args.budget, args.seeds, args.out, progress=not args.quiet, page=args.page))
 
 
 def _cmd_dataset(args: argparse.Namespace) -> None:
@@ -193,11 +196,15 @@ def _parser() -> argparse.ArgumentParser:
     train.add_argument("--quiet", action="store_true")
     train.set_defaults(run=_cmd_train)
 
-    rep = sub.add_parser("reproduce", help="train (or load) the paper's agent and benchmark it against the baselines")
-    rep.add_argument("env_id")
-    rep.add_argument("--preset", default="paper")
-    rep.add_argument("--seed", type=int, default=0)
-    rep.add_argument("--out", default=None)
+    rep = sub.add_parser(
+        "reproduce", help="train the paper's agents over seeds, test them beside the baselines, check the claims"
+    )
+    rep.add_argument("env_ids", nargs="*", metavar="ENV_ID")
+    rep.add_argument("--all", action="store_true", help="every installed environment")
+    rep.add_argument("--budget", choices=["paper", "quick"], default="paper", help="paper settings, or minutes")
+    rep.add_argument("--seeds", type=int, default=None, help="seeds per algorithm (default: the paper's)")
+    rep.add_argument("--out", default="results/reproduce", help="output folder; finished runs there are reused")
+    rep.add_argument("--page", default=None, help="also write the results page and figures into this folder")
     rep.add_argument("--quiet", action="store_true")
     rep.set_defaults(run=_cmd_reproduce)
     dataset = sub.add_parser("dataset", help="offline-RL datasets")

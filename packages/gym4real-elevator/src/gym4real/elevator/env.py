@@ -240,6 +240,16 @@ class ElevatorEnv(gym.Env[dict[str, Any], int]):
                 self._queue_obs[self._obs_index[floor]] += join
                 self.turned_away += k - join
 
+    def tabular_kernel(self) -> Any:
+        """This env's dynamics as compiled functions, for ``gym4real train`` Q-learning and SARSA (needs numba).
+
+        Returns a :class:`gym4real.elevator.kernel.ElevatorKernel`; its ``load(env)`` reads the episode the env
+        has just been reset to.
+        """
+        from gym4real.elevator.kernel import ElevatorKernel
+
+        return ElevatorKernel(self)
+
     def render(self) -> str | None:
         """Draw the shaft (``render_mode="ansi"``): one line per floor, top floor first."""
         if self.render_mode != "ansi":
