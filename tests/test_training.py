@@ -295,3 +295,27 @@ def test_an_interrupted_sb3_run_resumes_from_its_checkpoint(tmp_path: Path) -> N
     # DQN collects train_freq (4) steps of both envs at a time: the budget 408 is a multiple of 8
     assert run.env_steps == 408 and not (out / "checkpoint").exists()
     assert pd.read_csv(run.curve_csv)["timesteps"].tolist() == [136, 272, 408]
+
+
+def test_dam_and_wds_select_their_models_on_held_out_data() -> None:
+    from gym4real.core.benchmark import protocol
+    from gym4real.core.policies import load_object
+
+    dam = load_preset("gym4real/dam-v0", "ppo", "paper")
+    train_years = set(gym.make("gym4real/dam-v0", **dam["env_kwargs"]).unwrapped.years)
+    validation_years = set(gym.make("gym4real/dam-v0", **dam["eval_env_kwargs"]).unwrapped.years)
+    spec = protocol("gym4real/dam-v0")
+    test_years = {ep["options"]["year"] for ep in load_object(spec.protocol)(dict(spec.env_kwargs))}
+    assert (len(train_years), len(validation_years), len(test_years)) == (39, 13, 13)
+    assert train_years.isdisjoint(validation_years) and test_years.isdisjoint(train_years | validation_years)
+
+    if "gym4real/wds-v0" not in gym4real.list_envs():
+        return
+    wds = load_preset("gym4real/wds-v0", "dqn", "paper")
+    train_demand = gym.make("gym4real/wds-v0", **wds["env_kwargs"]).unwrapped.config.demand
+    validation_demand = gym.make("gym4real/wds-v0", **wds["eval_env_kwargs"]).unwrapped.config.demand
+    spec = protocol("gym4real/wds-v0")
+    test_profiles = {ep["options"]["profile_index"] for ep in load_object(spec.protocol)(dict(spec.env_kwargs))}
+    start, stop = validation_demand.test_indices
+    assert train_demand.split == "train" and validation_demand.split == "test"
+    assert test_profiles.isdisjoint(range(start, stop))
