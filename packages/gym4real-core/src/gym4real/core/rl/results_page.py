@@ -53,6 +53,30 @@ def _folders(out: Path) -> list[Path]:
     return found
 
 
+def _what_it_runs(env_id: str, budget: str) -> str:
+    """What ``gym4real reproduce ENV --budget B`` trains, tests and checks, in one sentence."""
+    from gym4real.core.benchmark import protocol
+    from gym4real.core.rl.presets import load_preset
+    from gym4real.core.rl.reproduce import presets, seeds
+
+    try:
+        trained = []
+        for algo, preset in presets(env_id, budget).items():
+            hp = load_preset(env_id, algo, preset)
+            size = f"{hp['episodes']:,} episodes" if "episodes" in hp else f"{hp['total_timesteps']:,} steps"
+            trained.append(f"`{algo}` (preset `{preset}`: {size} on {hp.get('n_envs', 1)} env(s))")
+        spec = protocol(env_id)
+        run_seeds = ", ".join(str(s) for s in seeds(env_id, budget))
+    except Exception as exc:  # the page must be written even when the registry has changed
+        return f"(`gym4real reproduce {env_id} --budget {budget}` could not be planned: {exc})"
+    claims = "; ".join(f'"{c.text}"' for c in spec.claims) or "none"
+    return (
+        f"With it in place, `gym4real reproduce {env_id} --budget {budget}` trains {', '.join(trained)} with "
+        f"seed(s) {run_seeds}, tests each model beside {', '.join(spec.policies)} on the test protocol "
+        f"({spec.description}), checks the claims ({claims}) and adds this section to the page."
+    )
+
+
 def _section(folder: Path, figures: str) -> list[str]:
     env, budget = folder.parent.name, folder.name
     if not (folder / "report.json").exists() or (folder / "error.txt").exists():
@@ -62,8 +86,7 @@ def _section(folder: Path, figures: str) -> list[str]:
             "",
             f"Not run here: {error}",
             "",
-            f"With what it needs in place, `gym4real reproduce gym4real/{env} --budget {budget}` trains, tests and "
-            "checks the claims of this environment and adds its section to this page.",
+            _what_it_runs(f"gym4real/{env}", budget),
             "",
         ]
     report = json.loads((folder / "report.json").read_text())
