@@ -230,23 +230,21 @@ def train_sb3(
     _check_hyperparams(algo_cls, hp["hyperparams"])
     checkpoint = out / "checkpoint"
     state = json.loads((checkpoint / "state.json").read_text()) if (checkpoint / "state.json").exists() else None
-    if state is None:
-        model = algo_cls(
-            hp.get("policy", "MlpPolicy"),
-            venv,
-            policy_kwargs=hp.get("policy_kwargs"),
-            seed=seed,
-            device="cpu",
-            verbose=0,
-            **hp.get("hyperparams", {}),
-        )
-    else:
-        from gym4real.core.rl.model_file import custom_objects
-
-        saved = checkpoint / "model.zip"
-        objects = custom_objects(saved, algo, algo_cls, venv.observation_space, venv.action_space)
-        model = algo_cls.load(saved, env=venv, device="cpu", custom_objects=objects)
-        model.set_random_seed(seed + int(state["timesteps"]))
+    model = algo_cls(
+        hp.get("policy", "MlpPolicy"),
+        venv,
+        policy_kwargs=hp.get("policy_kwargs"),
+        seed=seed if state is None else seed + int(state["timesteps"]),
+        device="cpu",
+        verbose=0,
+        **hp.get("hyperparams", {}),
+    )
+    if state is not None:
+        # the weights and optimizer states only (torch tensors, no pickle); the counters from state.json
+        model.set_parameters(str(checkpoint / "model.zip"), exact_match=True, device="cpu")
+        model.num_timesteps = int(state["timesteps"])
+        if hasattr(model, "_n_calls"):
+            model._n_calls = int(state["n_calls"])
         if isinstance(venv, VecNormalize):
             _load_normalization(venv, checkpoint / "normalize.npz")
         buffer = getattr(model, "replay_buffer", None)
@@ -293,6 +291,7 @@ def train_sb3(
                 _save_buffer(buffer, checkpoint / "buffer.npz")
             record = {
                 "timesteps": self.num_timesteps,
+                "n_calls": getattr(self.model, "_n_calls", 0),
                 "best": self.best,
                 "next_eval": self.next_eval,
                 "eval_steps": self.eval_steps,
