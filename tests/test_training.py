@@ -191,26 +191,19 @@ def test_tabular_model_selection_never_sees_the_test_seeds(tmp_path: Path, monke
     from gym4real.core.benchmark import protocol
     from gym4real.core.policies import load_object
 
-    made: list[list[int | None]] = []  # reset seeds of each env the trainer makes: training, then validation
-    make = gym.make
+    resets: dict[int, list[int | None]] = {}  # seeds of each env instance, in order of first reset
+    reset = gym.Env.reset
 
-    class Recorder(gym.Wrapper):
-        def reset(self, *, seed=None, options=None):
-            self.seeds.append(seed)
-            return super().reset(seed=seed, options=options)
+    def recording_reset(self, *, seed=None, options=None):
+        resets.setdefault(id(self), []).append(seed)
+        return reset(self, seed=seed, options=options)
 
-    def recording_make(env_id, **kwargs):
-        env = Recorder(make(env_id, **kwargs))
-        env.seeds = []
-        made.append(env.seeds)
-        return env
-
-    monkeypatch.setattr(gym, "make", recording_make)
+    monkeypatch.setattr(gym.Env, "reset", recording_reset)
     train("gym4real/elevator-v0", "qlearning", "smoke", seed=0, out=tmp_path)
     spec = protocol("gym4real/elevator-v0")
     test_seeds = {ep["seed"] for ep in load_object(spec.protocol)(dict(spec.env_kwargs))}
-    validation = made[1]
-    assert validation and set(validation).isdisjoint(test_seeds)
+    training, validation = resets.values()  # the training env is reset first
+    assert len(training) == 6 and validation and set(validation).isdisjoint(test_seeds)
 
 
 def test_every_registered_preset_selects_on_seeds_disjoint_from_the_test_protocol(tmp_path: Path) -> None:

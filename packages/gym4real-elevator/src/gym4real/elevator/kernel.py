@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+import gymnasium as gym
 import numpy as np
 from numba import njit
 
@@ -75,7 +76,7 @@ def observe(state: np.ndarray, data: tuple[Any, ...], obs: np.ndarray) -> None:
 
 
 class ElevatorKernel:
-    """The episode an :class:`ElevatorEnv` has just been reset to, as arrays for :func:`step` and :func:`observe`."""
+    """An :class:`ElevatorEnv`'s episodes as arrays for :func:`step` and :func:`observe`."""
 
     step = staticmethod(step)
     observe = staticmethod(observe)
@@ -98,10 +99,13 @@ class ElevatorKernel:
         self._served = np.array(env._served_floors, dtype=np.int64)
         self._coeff = float(env._coeff)
 
-    def load(self, env: ElevatorEnv) -> tuple[np.ndarray, tuple[Any, ...]]:
-        """The state vector and the data of the episode ``env`` is in (call after ``env.reset``)."""
-        state = np.array(
-            [env._t, env._pos, env._load, env.delivered, env.turned_away, *env._queues],
-            dtype=np.int64,
-        )
-        return state, (np.ascontiguousarray(env._arrivals, dtype=np.int64), self._served, self._params, self._coeff)
+    def reset(self, env: ElevatorEnv, seed: int | None) -> tuple[np.ndarray, tuple[Any, ...]]:
+        """The arrays of the episode ``env.reset(seed=seed)`` starts, drawn as it draws them; ``env`` itself stays.
+
+        Skips what the Python ``step`` needs (lists of the arrivals), the larger part of a reset's cost.
+        """
+        gym.Env.reset(env, seed=seed)
+        table, position = env._draw_episode()
+        state = np.zeros(_QUEUES + env._n_floors, dtype=np.int64)
+        state[_POS] = position
+        return state, (table, self._served, self._params, self._coeff)

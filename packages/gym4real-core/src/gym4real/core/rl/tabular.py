@@ -102,15 +102,16 @@ class TabularKernel(Protocol):
 
     ``step(state, data, action) -> (reward, terminated, truncated)`` advances ``state`` in place and
     ``observe(state, data, obs)`` writes the observation flattened as :class:`StateIndexer` reads it; both
-    are numba functions. ``load(env)`` returns ``(state, data)`` of the episode the env was just reset to.
+    are numba functions. ``reset(env, seed)`` returns ``(state, data)`` of the episode that
+    ``env.reset(seed=seed)`` would start (drawn the same way, possibly without preparing the Python step).
     """
 
     horizon: int
     step: Any
     observe: Any
 
-    def load(self, env: Any) -> tuple[np.ndarray, tuple[Any, ...]]:
-        """The arrays of the episode ``env`` has just been reset to."""
+    def reset(self, env: Any, seed: int | None) -> tuple[np.ndarray, tuple[Any, ...]]:
+        """The arrays of the episode ``env.reset(seed=seed)`` starts."""
 
 
 Progress = Callable[[int, int], None]
@@ -271,8 +272,7 @@ def train_tabular(
         def evaluate(table: np.ndarray) -> list[float]:
             rets = []
             for i in range(eval_episodes):
-                eval_env.reset(seed=eval_seed + i)
-                state, data = kernel.load(eval_env.unwrapped)
+                state, data = kernel.reset(eval_env.unwrapped, eval_seed + i)
                 ret, n = compiled_episode(
                     kernel.step, kernel.observe, state, data, table, weights, no_draws, 0.0, 0.0, 0.0, False, False
                 )
@@ -291,8 +291,7 @@ def train_tabular(
         episode_seed, explore_seed = int(rng.integers(2**31)), int(rng.integers(2**63))
         draws = _Draws(explore_seed)
         if kernel is not None:
-            env.reset(seed=episode_seed)
-            state, data = kernel.load(env.unwrapped)
+            state, data = kernel.reset(env.unwrapped, episode_seed)
             u = draws.upto(kernel.horizon + 1)
             _, n = compiled_episode(
                 kernel.step, kernel.observe, state, data, q, weights, u, eps, alpha, gamma, sarsa, True
