@@ -2,7 +2,8 @@
 
 :func:`write_page` reads every ``<env>/<budget>/`` folder of a reproduce output folder (its
 ``report.json``, ``summary.csv``, ``claims.json``, figures, or ``error.txt``) and writes ``results.md``
-beside them, plus ``claims.json`` and ``summary.csv`` over all environments. Given a page folder (a docs
+beside them, plus ``claims.json``, ``claims.md`` (the short table of verdicts) and ``summary.csv`` over all
+environments. Given a page folder (a docs
 folder) it writes ``index.md`` there with the figures copied under ``figures/<env>-<budget>/``.
 """
 
@@ -138,6 +139,36 @@ def _section(folder: Path, figures: str) -> list[str]:
     return lines
 
 
+def _binding(claim: dict[str, Any]) -> dict[str, Any] | None:
+    """The comparison that decides a claim: the one whose interval is least favourable to it."""
+    comps = claim["comparisons"]
+    if not comps:
+        return None
+    if claim["relation"] == "above":
+        return min(comps, key=lambda c: c["ci95"][0])
+    if claim["relation"] == "not_above":
+        return max(comps, key=lambda c: c["ci95"][0])
+    return max(comps, key=lambda c: c["ci95"][1])
+
+
+def claims_table(claims: list[dict[str, Any]]) -> str:
+    """A short Markdown table: per claim, the verdict and the interval of its deciding comparison."""
+    lines = [
+        "| env | budget | paper's claim | verdict | deciding comparison: difference [95 % CI] |",
+        "|---|---|---|---|---|",
+    ]
+    for c in claims:
+        comp = _binding(c)
+        stat = "std" if c["statistic"] == "std" else "IQM"
+        where = (
+            f"{stat} {c['policy']} - {comp['other']}: {_fmt(comp['difference'])} {_ci(*comp['ci95'])}"
+            if comp
+            else c.get("reason", "")
+        )
+        lines.append(f"| `{c['env_id'].split('/')[-1]}` | {c['budget']} | {c['text']} | **{c['verdict']}** | {where} |")
+    return "\n".join(lines) + "\n"
+
+
 def write_page(out: Path, page: str | Path | None = None) -> Path:
     """Write ``out/results.md`` (and ``page/index.md`` with its figures) from the env folders in ``out``."""
     folders = _folders(out)
@@ -152,6 +183,7 @@ def write_page(out: Path, page: str | Path | None = None) -> Path:
                 claims.append({**c, "budget": folder.name})
             tables.append(pd.read_csv(folder / "summary.csv").assign(env_id=report["env_id"], budget=folder.name))
     (out / "claims.json").write_text(json.dumps(claims, indent=1))
+    (out / "claims.md").write_text(claims_table(claims))
     if tables:
         pd.concat(tables).to_csv(out / "summary.csv", index=False)
     head = [
@@ -168,11 +200,8 @@ def write_page(out: Path, page: str | Path | None = None) -> Path:
         f"Versions: {', '.join(f'{k} {v}' for k, v in sorted(versions.items()))}; Python "
         f"{platform.python_version()}, {platform.machine()}.",
         "",
-        "| environment | budget | claim | verdict |",
-        "|---|---|---|---|",
+        claims_table(claims),
     ]
-    head += [f"| `{c['env_id']}` | {c['budget']} | {c['text']} | **{c['verdict']}** |" for c in claims]
-    head.append("")
     body: list[str] = []
     for folder in folders:
         body += _section(folder, "figures")
