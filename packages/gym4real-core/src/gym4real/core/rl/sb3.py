@@ -12,7 +12,6 @@ from __future__ import annotations
 import inspect
 import json
 import shutil
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +19,7 @@ import gymnasium as gym
 import numpy as np
 
 from gym4real.core.errors import ConfigError, PolicyError
+from gym4real.core.rl.train import Progress
 
 #: PyTorch's index of CPU-only wheels.
 TORCH_CPU_INDEX = "https://download.pytorch.org/whl/cpu"
@@ -199,7 +199,7 @@ def _load_buffer(buffer: Any, path: Path) -> None:
 
 
 def train_sb3(
-    env_id: str, hp: dict[str, Any], seed: int, out: Path, progress: Callable[[int, int], None] | None = None
+    env_id: str, hp: dict[str, Any], seed: int, out: Path, progress: Progress | None = None
 ) -> tuple[Path, dict[str, int]]:
     """Train PPO or DQN with a preset; keep the best model on the validation episodes.
 

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import json
 import logging
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -28,6 +27,7 @@ import numpy as np
 from gymnasium import spaces
 
 from gym4real.core.errors import PolicyError
+from gym4real.core.rl.train import Progress
 
 
 class StateIndexer:
@@ -113,9 +113,6 @@ class TabularKernel(Protocol):
     def reset(self, env: Any, seed: int | None) -> tuple[np.ndarray, tuple[Any, ...]]:
         """The arrays of the episode ``env.reset(seed=seed)`` starts."""
 
-
-Progress = Callable[[int, int], None]
-"""``progress(done, total)``: the trainer's progress in its unit (episodes or timesteps)."""
 
 _CHUNK = 4096
 
