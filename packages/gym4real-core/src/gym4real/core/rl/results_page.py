@@ -100,7 +100,8 @@ def _section(folder: Path, figures: str) -> list[str]:
         "",
         f"Training presets {', '.join(f'`{a}/{p}`' for a, p in report['presets'].items())}; seeds "
         f"{', '.join(str(s) for s in report['seeds'])}; training wall time "
-        f"{_duration(report['training_wall_time_s'])} (sum over runs), test {_duration(report['test_wall_time_s'])}.",
+        f"{_duration(report['training_wall_time_s'])} (sum over runs), test {_duration(report['test_wall_time_s'])}"
+        f"{'; code ' + report['versions']['gym4real (git)'] if 'gym4real (git)' in report['versions'] else ''}.",
         "",
         "| policy | seeds | episodes | IQM | 95 % CI | mean | std | seed IQMs | train time | env-steps/s |",
         "|---|---|---|---|---|---|---|---|---|---|",
@@ -178,7 +179,7 @@ def write_page(out: Path, page: str | Path | None = None) -> Path:
     for folder in folders:
         if (folder / "report.json").exists() and not (folder / "error.txt").exists():
             report = json.loads((folder / "report.json").read_text())
-            versions.update(report["versions"])
+            versions.update({k: v for k, v in report["versions"].items() if k != "gym4real (git)"})
             for c in json.loads((folder / "claims.json").read_text()):
                 claims.append({**c, "budget": folder.name})
             tables.append(pd.read_csv(folder / "summary.csv").assign(env_id=report["env_id"], budget=folder.name))

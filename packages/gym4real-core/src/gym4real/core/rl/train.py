@@ -9,6 +9,7 @@ settings resumes it; a folder of other settings is refused.
 from __future__ import annotations
 
 import json
+import subprocess
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -57,13 +58,24 @@ def default_out(env_id: str, algo: str, preset: str, seed: int) -> Path:
 
 
 def versions() -> dict[str, str]:
-    """Installed versions of the packages a training result depends on."""
+    """Installed versions of the packages a training result depends on, and the commit of a git checkout."""
     found = {}
     for dist in _VERSIONS:
         try:
             found[dist] = metadata.version(dist)
         except metadata.PackageNotFoundError:
             continue
+    try:
+        git = subprocess.run(
+            ["git", "-C", str(Path(__file__).parent), "describe", "--always", "--dirty"],
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+    except OSError:  # no git
+        return found
+    if git.returncode == 0:
+        found["gym4real (git)"] = git.stdout.strip()
     return found
 
 
