@@ -141,15 +141,16 @@ def _section(folder: Path, figures: str) -> list[str]:
 
 
 def _binding(claim: dict[str, Any]) -> dict[str, Any] | None:
-    """The comparison that decides a claim: the one whose interval is least favourable to it."""
+    """The comparison that decides a claim: the worst verdict, then the interval least favourable to it."""
     comps = claim["comparisons"]
     if not comps:
         return None
+    rank = {"does not hold": 0, "inconclusive": 1, "holds": 2}
     if claim["relation"] == "above":
-        return min(comps, key=lambda c: c["ci95"][0])
+        return min(comps, key=lambda c: (rank[c["verdict"]], c["ci95"][0]))
     if claim["relation"] == "not_above":
-        return max(comps, key=lambda c: c["ci95"][0])
-    return max(comps, key=lambda c: c["ci95"][1])
+        return min(comps, key=lambda c: (rank[c["verdict"]], -c["ci95"][0]))
+    return min(comps, key=lambda c: (rank[c["verdict"]], -c["ci95"][1]))
 
 
 def claims_table(claims: list[dict[str, Any]]) -> str:
