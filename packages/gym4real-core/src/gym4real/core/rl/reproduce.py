@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import json
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -109,6 +109,39 @@ def plan(env_id: str, budget: str, n_seeds: int | None, out: Path) -> list[Item]
         for algo, preset in algos.items()
         for s in seeds(env_id, budget, n_seeds)
     ]
+
+
+class PlanProgress:
+    """One progress bar over a whole plan: its training runs and each environment's test, one unit each."""
+
+    def __init__(self, total: int, show: bool) -> None:
+        self.closed = 0
+        self.bar = None
+        if show:
+            from tqdm.auto import tqdm
+
+            self.bar = tqdm(
+                total=total,
+                desc="reproduce",
+                bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.2f}/{total} runs and tests [{elapsed}<{remaining}]",
+            )
+
+    def item(self, env_id: str, done: int, total: int) -> None:
+        """The current item has ``done`` of its ``total`` units done (a trainer may overshoot its budget)."""
+        if self.bar is not None:
+            self.bar.set_description(f"reproduce {slug(env_id)}", refresh=False)
+            self.bar.update(self.closed + min(done / max(total, 1), 1.0) - self.bar.n)
+
+    def close_item(self) -> None:
+        """The current item is finished."""
+        self.closed += 1
+        if self.bar is not None:
+            self.bar.update(self.closed - self.bar.n)
+
+    def close(self) -> None:
+        """Close the bar."""
+        if self.bar is not None:
+            self.bar.close()
 
 
 def _scores(result: Any, name: str) -> np.ndarray:
@@ -258,7 +291,7 @@ def reproduce_env(
     budget: str,
     n_seeds: int | None,
     out: Path,
-    advance: Callable[[float], None] | None = None,
+    progress: PlanProgress | None = None,
 ) -> EnvReport:
     """Train (or reuse), test and check the claims of one environment; write its folder."""
     from gym4real.core import plots
@@ -274,13 +307,13 @@ def reproduce_env(
         run = finished_run(item.folder, item.env_id, item.algo, item.preset, item.seed)
         if run is None:
 
-            def progress(done: int, total: int) -> None:
-                if advance is not None:
-                    advance(done / max(total, 1))
+            def on_progress(done: int, total: int, _env: str = env_id) -> None:
+                if progress is not None:
+                    progress.item(_env, done, total)
 
-            run = train(item.env_id, item.algo, item.preset, item.seed, item.folder, progress)
-        if advance is not None:
-            advance(1.0)
+            run = train(item.env_id, item.algo, item.preset, item.seed, item.folder, on_progress)
+        if progress is not None:
+            progress.close_item()
         runs.append(run)
     spec = protocol(env_id)
     baselines = list(spec.policies)
@@ -323,8 +356,8 @@ def reproduce_env(
         "versions": versions(),
     }
     (folder / "report.json").write_text(json.dumps(report, indent=1))
-    if advance is not None:
-        advance(1.0)
+    if progress is not None:
+        progress.close_item()
     return EnvReport(env_id, budget, runs, scores, table, claims, wall, folder)
 
 
@@ -357,32 +390,13 @@ def reproduce(
             plans[env_id] = len(plan(env_id, budget, n_seeds, out))
         except Gym4RealError as exc:
             errors[env_id] = " ".join(str(exc).split())
-    bar = None
-    if progress:
-        from tqdm.auto import tqdm
-
-        bar = tqdm(
-            total=sum(plans.values()) + len(plans),
-            desc="reproduce",
-            bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.2f}/{total} runs and tests [{elapsed}<{remaining}]",
-        )
+    bar = PlanProgress(sum(plans.values()) + len(plans), progress)
     lines = []
-    finished = 0.0
+    items_so_far = 0
     for env_id in plans:
-        done = [0.0]  # items of this env closed so far
-
-        def advance(fraction: float, _done: list[float] = done, _env: str = env_id, _before: float = finished) -> None:
-            """Progress of the current item (a fraction; 1.0 closes it), shown on the one bar."""
-            if bar is None:
-                return
-            if fraction >= 1.0:
-                _done[0] += 1.0
-                fraction = 0.0
-            bar.set_description(f"reproduce {slug(_env)}", refresh=False)
-            bar.update(_before + _done[0] + fraction - bar.n)
-
+        items_so_far += plans[env_id] + 1
         try:
-            report = reproduce_env(env_id, budget, n_seeds, out, advance)
+            report = reproduce_env(env_id, budget, n_seeds, out, bar)
         except Exception as exc:  # one env's failure (missing data, a bug) must not stop the others
             name = "" if isinstance(exc, Gym4RealError) else f"{type(exc).__name__}: "
             errors[env_id] = name + " ".join(str(exc).split())
@@ -391,14 +405,14 @@ def reproduce(
             for c in report.claims:
                 lines.append(f"claim: {c['text']} -> {c['verdict']}")
             lines.append("")
-        finished += plans[env_id] + 1
+        while bar.closed < items_so_far:  # the remaining items of an env that failed
+            bar.close_item()
     for env_id, error in errors.items():
         folder = out / slug(env_id) / budget
         folder.mkdir(parents=True, exist_ok=True)
         (folder / "error.txt").write_text(error + "\n")
         lines.append(f"== {env_id} ({budget}): not run: {error}")
-    if bar is not None:
-        bar.close()
+    bar.close()
     from gym4real.core.rl.results_page import write_page
 
     written = write_page(out, page)
