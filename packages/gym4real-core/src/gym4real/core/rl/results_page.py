@@ -195,9 +195,11 @@ def write_page(out: Path, page: str | Path | None = None) -> Path:
         "training presets, tested on the environment's test protocol beside the baselines. Scores are the "
         "per-episode objective; the IQM (interquartile mean over all seeds and test episodes) has a 95 % "
         "percentile-bootstrap interval over the test episodes (scipy; each resampled episode keeps every "
-        "seed's score); *seed IQMs* gives the range of the per-seed IQMs. A claim comparison holds when the "
-        "interval of the difference lies on the claimed side of 0, does not hold when it lies on the other "
-        "side, and is inconclusive otherwise; a claim holds when all its comparisons hold.",
+        "seed's score); *seed IQMs* gives the range of the per-seed IQMs; *std* is over all seeds' test episodes, "
+        "so it includes the spread between seeds. A claim comparison holds when the interval of the difference "
+        "lies on the claimed side of 0, does not hold when it lies on the other side, and is inconclusive "
+        "otherwise; a claim holds when all its comparisons hold. Wall times and env-steps/s were measured on a "
+        "shared machine and vary with its load.",
         "",
         f"Versions: {', '.join(f'{k} {v}' for k, v in sorted(versions.items()))}; Python "
         f"{platform.python_version()}, {platform.machine()}.",
