@@ -44,13 +44,19 @@ def _duration(seconds: float) -> str:
     return f"{seconds:.0f} s"
 
 
+def _has_results(folder: Path) -> bool:
+    return (folder / "report.json").exists() and not (folder / "error.txt").exists()
+
+
 def _folders(out: Path) -> list[Path]:
+    """Per environment: its paper-budget folder, or else why it is missing and its quick-budget folder."""
     found = []
-    for env in sorted(p for p in out.iterdir() if p.is_dir()):
-        for budget in _BUDGETS:
-            folder = env / budget
-            if (folder / "report.json").exists() or (folder / "error.txt").exists():
-                found.append(folder)
+    for env in sorted(p for p in out.iterdir() if p.is_dir() and p.name != "figures"):
+        paper, quick = env / "paper", env / "quick"
+        if _has_results(paper):
+            found.append(paper)
+            continue
+        found += [f for f in (paper, quick) if (f / "report.json").exists() or (f / "error.txt").exists()]
     return found
 
 
@@ -80,7 +86,7 @@ def _what_it_runs(env_id: str, budget: str) -> str:
 
 def _section(folder: Path, figures: str) -> list[str]:
     env, budget = folder.parent.name, folder.name
-    if not (folder / "report.json").exists() or (folder / "error.txt").exists():
+    if not _has_results(folder):
         error = (folder / "error.txt").read_text().strip() if (folder / "error.txt").exists() else "no results"
         return [
             f"## `gym4real/{env}`, budget `{budget}`: not run",
@@ -178,7 +184,7 @@ def write_page(out: Path, page: str | Path | None = None) -> Path:
     tables = []
     versions: dict[str, str] = {}
     for folder in folders:
-        if (folder / "report.json").exists() and not (folder / "error.txt").exists():
+        if _has_results(folder):
             report = json.loads((folder / "report.json").read_text())
             versions.update({k: v for k, v in report["versions"].items() if k != "gym4real (git)"})
             for c in json.loads((folder / "claims.json").read_text()):
@@ -199,7 +205,9 @@ def write_page(out: Path, page: str | Path | None = None) -> Path:
         "so it includes the spread between seeds. A claim comparison holds when the interval of the difference "
         "lies on the claimed side of 0, does not hold when it lies on the other side, and is inconclusive "
         "otherwise; a claim holds when all its comparisons hold. Wall times and env-steps/s were measured on a "
-        "shared machine and vary with its load.",
+        "shared machine and vary with its load. An environment is shown at the `paper` budget when it was run "
+        "there, else at the `quick` budget (the smoke presets: seconds of training), which checks that the "
+        "pipeline runs and says nothing about the paper's claims.",
         "",
         f"Versions: {', '.join(f'{k} {v}' for k, v in sorted(versions.items()))}; Python "
         f"{platform.python_version()}, {platform.machine()}.",
@@ -211,6 +219,7 @@ def write_page(out: Path, page: str | Path | None = None) -> Path:
         body += _section(folder, "figures")
     text = "\n".join(head + body)
     (out / "results.md").write_text(text)
+    shutil.rmtree(out / "figures", ignore_errors=True)
     for folder in folders:
         target = out / "figures" / f"{folder.parent.name}-{folder.name}"
         target.mkdir(parents=True, exist_ok=True)
