@@ -217,7 +217,7 @@ def check_claim(claim: Claim, scores: dict[str, np.ndarray]) -> dict[str, Any]:
     return record
 
 
-def _table(scores: dict[str, np.ndarray], runs: list[TrainingRun]) -> pd.DataFrame:
+def _table(scores: dict[str, np.ndarray], returns: dict[str, list[float]], runs: list[TrainingRun]) -> pd.DataFrame:
     rows = []
     for name, matrix in scores.items():
         mine = [r for r in runs if r.algo == name]
@@ -232,6 +232,7 @@ def _table(scores: dict[str, np.ndarray], runs: list[TrainingRun]) -> pd.DataFra
             "ci95_high": high,
             "mean": float(matrix.mean()),
             "std": float(matrix.std()),
+            "mean_return": float(np.mean(returns[name])),
             "seed_iqm_min": float(min(stats.iqm(m) for m in matrix)),
             "seed_iqm_max": float(max(stats.iqm(m) for m in matrix)),
         }
@@ -278,7 +279,7 @@ def _curves(runs: list[TrainingRun], folder: Path) -> None:
     if not frames:
         plt.close(fig)
         return
-    ax.set(xlabel=unit, ylabel="validation return", title="learning curves: mean and 95 % band")
+    ax.set(xlabel=unit, ylabel="validation return", title=f"{runs[0].env_id}: learning curves (mean, 95 % band)")
     ax.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(folder / "learning_curves.png", dpi=100)
@@ -326,10 +327,11 @@ def reproduce_env(
     for algo, results in tested.items():
         scores[algo] = np.stack([_scores(r, next(iter(r.returns))) for r in results])
     test_wall = time.perf_counter() - test_start
-    table = _table(scores, runs)
+    pooled = _pooled(env_id, base, tested)
+    table = _table(scores, pooled.returns, runs)
     claims = [{"env_id": env_id, **check_claim(c, scores)} for c in spec.claims]
     wall = time.perf_counter() - start
-    plots.save_figures(_pooled(env_id, base, tested), folder)
+    plots.save_figures(pooled, folder)
     _curves(runs, folder)
     table.to_csv(folder / "summary.csv")
     (folder / "claims.json").write_text(json.dumps(claims, indent=1))
