@@ -338,6 +338,7 @@ def reproduce_env(
     report = {
         "env_id": env_id,
         "budget": budget,
+        "command": f"gym4real reproduce {env_id} --budget {budget} --seeds {len(items) // len(tested)} --out {out}",
         "objective": list(spec.objective) or ["return"],
         "protocol": spec.description,
         "seeds": sorted({r.seed for r in runs}),

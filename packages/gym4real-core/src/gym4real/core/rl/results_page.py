@@ -104,6 +104,11 @@ def _section(folder: Path, figures: str) -> list[str]:
         "",
         f"Test protocol: {report['protocol']}. Objective: {' + '.join(report['objective'])} per episode.",
         "",
+        *(
+            [f"Command (reuses the finished runs of its output folder): `{report['command']}`", ""]
+            if "command" in report
+            else []
+        ),
         f"Training presets {', '.join(f'`{a}/{p}`' for a, p in report['presets'].items())}; seeds "
         f"{', '.join(str(s) for s in report['seeds'])}; training wall time "
         f"{_duration(report['training_wall_time_s'])} (sum over runs), test {_duration(report['test_wall_time_s'])}"
