@@ -140,3 +140,175 @@ def test_an_unknown_sb3_hyperparameter_is_named(tmp_path: Path) -> None:
     path.write_text("algo: ppo\ntotal_timesteps: 64\nhyperparams: {n_steps: 32, lr: 0.1}\n")
     with pytest.raises(ConfigError, match=r"unknown field `hyperparams.lr` for PPO; expected some of .*learning_rate"):
         train("gym4real/elevator-v0", "ppo", str(path), out=tmp_path / "run")
+
+
+def _elevator_preset(tmp_path: Path, **edits: str) -> str:
+    text = ELEVATOR_SMOKE
+    for key, value in edits.items():
+        text = "\n".join(f"{key}: {value}" if line.startswith(f"{key}:") else line for line in text.splitlines())
+        if f"\n{key}:" not in "\n" + text:
+            text += f"\n{key}: {value}"
+    path = tmp_path / "preset.yaml"
+    path.write_text(text + "\n")
+    return str(path)
+
+
+def test_tabular_learning_curve_advances_in_episodes(tmp_path: Path) -> None:
+    from gym4real.core.rl.curves import LearningCurve
+
+    preset = _elevator_preset(tmp_path, episodes="6", eval_episodes="2", patience="10")
+    run = train("gym4real/elevator-v0", "qlearning", preset, seed=1, out=tmp_path / "run")
+    curve = pd.read_csv(run.curve_csv)
+    assert curve["episodes"].tolist() == [2, 4, 6]  # the progress, not the evaluation's episode count
+    assert curve["eval_episodes"].tolist() == [2, 2, 2]
+    fig = LearningCurve.load(tmp_path / "run", "episodes").figure()
+    low, high = fig.axes[0].get_xlim()
+    assert low <= 2 < 6 <= high and high - low < 8
+
+
+@pytest.mark.parametrize(("algo", "fidelity"), [("qlearning", "corrected"), ("sarsa", "upstream")])
+def test_compiled_and_python_tabular_loops_learn_the_same_table(algo: str, fidelity: str, tmp_path: Path) -> None:
+    pytest.importorskip("numba")
+    import numpy as np
+
+    from gym4real.core.rl.tabular import train_tabular
+
+    hp = load_preset("gym4real/elevator-v0", algo, _elevator_preset(tmp_path, algo=algo, episodes="5"))
+    hp["env_kwargs"] = hp["eval_env_kwargs"] = {"duration": 200, "fidelity": fidelity}
+    tables, curves = [], []
+    for compiled in (False, True):
+        out = tmp_path / str(compiled)
+        path, steps = train_tabular("gym4real/elevator-v0", hp, 7, out, compiled=compiled)
+        tables.append(np.load(path)["q"])
+        curves.append((out / "curve.csv").read_text())
+        assert steps == {"train": 5 * 200, "eval": 2 * 200}
+    assert np.abs(tables[0]).sum() > 0
+    np.testing.assert_array_equal(tables[0], tables[1])
+    assert curves[0] == curves[1]
+
+
+def test_tabular_model_selection_never_sees_the_test_seeds(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from gym4real.core.benchmark import protocol
+    from gym4real.core.policies import load_object
+
+    resets: dict[int, list[int | None]] = {}  # seeds of each env instance, in order of first reset
+    reset = gym.Env.reset
+
+    def recording_reset(self, *, seed=None, options=None):
+        resets.setdefault(id(self), []).append(seed)
+        return reset(self, seed=seed, options=options)
+
+    monkeypatch.setattr(gym.Env, "reset", recording_reset)
+    train("gym4real/elevator-v0", "qlearning", "smoke", seed=0, out=tmp_path)
+    spec = protocol("gym4real/elevator-v0")
+    test_seeds = {ep["seed"] for ep in load_object(spec.protocol)(dict(spec.env_kwargs))}
+    training, validation = resets.values()  # the training env is reset first
+    assert len(training) == 6 and validation and set(validation).isdisjoint(test_seeds)
+
+
+def test_every_registered_preset_selects_on_seeds_disjoint_from_the_test_protocol(tmp_path: Path) -> None:
+    from gym4real.core.rl.train import check_no_test_overlap
+
+    for env_id, algo, preset in registry().trainings:
+        check_no_test_overlap(env_id, algo, preset)
+    bad = _elevator_preset(tmp_path, eval_seed="1250")
+    with pytest.raises(ConfigError, match="selects its model on test episodes"):
+        train("gym4real/elevator-v0", "qlearning", bad, out=tmp_path / "run")
+
+
+def test_ppo_mini_batches_divide_every_rollout() -> None:
+    """SB3 truncates the last mini-batch when batch_size does not divide n_steps * n_envs."""
+    for env_id, algo, preset in registry().trainings:
+        if algo == "ppo":
+            hp = load_preset(env_id, algo, preset)
+            rollout = hp["hyperparams"]["n_steps"] * hp["n_envs"]
+            assert rollout % hp["hyperparams"].get("batch_size", 64) == 0, (env_id, preset)
+
+
+class _Interrupt(Exception):
+    pass
+
+
+def test_an_interrupted_tabular_run_resumes_to_the_same_table(tmp_path: Path) -> None:
+    import numpy as np
+
+    preset = _elevator_preset(tmp_path, episodes="6", patience="10")
+    whole = train("gym4real/elevator-v0", "qlearning", preset, seed=3, out=tmp_path / "whole")
+
+    def stop_at_five(done: int, total: int) -> None:
+        if done == 5:
+            raise _Interrupt
+
+    with pytest.raises(_Interrupt):
+        train("gym4real/elevator-v0", "qlearning", preset, seed=3, out=tmp_path / "cut", progress=stop_at_five)
+    assert (tmp_path / "cut" / "checkpoint.npz").exists() and not (tmp_path / "cut" / "run.json").exists()
+    resumed = train("gym4real/elevator-v0", "qlearning", preset, seed=3, out=tmp_path / "cut")
+    np.testing.assert_array_equal(np.load(resumed.model_path)["q"], np.load(whole.model_path)["q"])
+    assert pd.read_csv(resumed.curve_csv).equals(pd.read_csv(whole.curve_csv))
+    assert not (tmp_path / "cut" / "checkpoint.npz").exists()
+    with pytest.raises(ConfigError, match="holds a run of other settings"):
+        train("gym4real/elevator-v0", "qlearning", preset, seed=4, out=tmp_path / "cut")
+
+
+TRADING_DQN = """
+algo: dqn
+total_timesteps: 408
+n_envs: 2
+policy_kwargs: {net_arch: [16]}
+hyperparams: {learning_starts: 20, buffer_size: 1000, batch_size: 8, train_freq: 4}
+env_kwargs: {preset: train}
+eval_env_kwargs: {preset: validation}
+eval_freq: 136
+eval_episodes: 2
+"""
+
+
+def test_an_interrupted_sb3_run_resumes_from_its_checkpoint(tmp_path: Path) -> None:
+    pytest.importorskip("stable_baselines3")
+    import json
+
+    import numpy as np
+
+    path = tmp_path / "dqn.yaml"
+    path.write_text(TRADING_DQN)
+
+    def stop_after_the_second_evaluation(done: int, total: int) -> None:
+        if done >= 300:
+            raise _Interrupt
+
+    out = tmp_path / "run"
+    with pytest.raises(_Interrupt):
+        train("gym4real/trading-v0", "dqn", str(path), seed=0, out=out, progress=stop_after_the_second_evaluation)
+    state = json.loads((out / "checkpoint" / "state.json").read_text())
+    assert state["timesteps"] == 272
+    with np.load(out / "checkpoint" / "buffer.npz") as buffer:
+        # 272 steps of 2 envs are 136 rows; SB3 stores a step's row after calling back, so 135 are saved
+        assert len(buffer["rewards"]) == 135
+    run = train("gym4real/trading-v0", "dqn", str(path), seed=0, out=out)
+    # DQN collects train_freq (4) steps of both envs at a time: the budget 408 is a multiple of 8
+    assert run.env_steps == 408 and not (out / "checkpoint").exists()
+    assert pd.read_csv(run.curve_csv)["timesteps"].tolist() == [136, 272, 408]
+
+
+def test_dam_and_wds_select_their_models_on_held_out_data() -> None:
+    from gym4real.core.benchmark import protocol
+    from gym4real.core.policies import load_object
+
+    dam = load_preset("gym4real/dam-v0", "ppo", "paper")
+    train_years = set(gym.make("gym4real/dam-v0", **dam["env_kwargs"]).unwrapped.years)
+    validation_years = set(gym.make("gym4real/dam-v0", **dam["eval_env_kwargs"]).unwrapped.years)
+    spec = protocol("gym4real/dam-v0")
+    test_years = {ep["options"]["year"] for ep in load_object(spec.protocol)(dict(spec.env_kwargs))}
+    assert (len(train_years), len(validation_years), len(test_years)) == (39, 13, 13)
+    assert train_years.isdisjoint(validation_years) and test_years.isdisjoint(train_years | validation_years)
+
+    if "gym4real/wds-v0" not in gym4real.list_envs():
+        return
+    wds = load_preset("gym4real/wds-v0", "dqn", "paper")
+    train_demand = gym.make("gym4real/wds-v0", **wds["env_kwargs"]).unwrapped.config.demand
+    validation_demand = gym.make("gym4real/wds-v0", **wds["eval_env_kwargs"]).unwrapped.config.demand
+    spec = protocol("gym4real/wds-v0")
+    test_profiles = {ep["options"]["profile_index"] for ep in load_object(spec.protocol)(dict(spec.env_kwargs))}
+    start, stop = validation_demand.test_indices
+    assert train_demand.split == "train" and validation_demand.split == "test"
+    assert test_profiles.isdisjoint(range(start, stop))

@@ -74,7 +74,7 @@ def test_every_env_refuses_what_its_space_does_not_contain(env_id: str, data: st
     if isinstance(space, spaces.Discrete):
         action = data.draw(
             st.one_of(
-                # outside [start, start + n), huge ints included (Discrete.contains overflows on them in gymnasium 1.2.2)
+                # outside [start, start + n), huge ints too (gymnasium 1.2.2's Discrete.contains overflows on them)
                 st.integers().filter(lambda v: not int(space.start) <= v < int(space.start) + int(space.n)),
                 st.floats(allow_nan=True, allow_infinity=True),
                 st.text(max_size=3),

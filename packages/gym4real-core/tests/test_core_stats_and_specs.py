@@ -44,3 +44,70 @@ def test_env_spec_validation(kwargs) -> None:
 def test_baseline_names_are_snake_case() -> None:
     with pytest.raises(ValueError, match="snake"):
         BaselineSpec("gym4real/demo-v0", "LongestFirst", "m:f")
+
+
+def test_iqm_is_scipys_trimmed_mean_over_all_runs_and_episodes() -> None:
+    scores = np.arange(40.0).reshape(4, 10)
+    assert stats.iqm(scores) == pytest.approx(np.mean(np.arange(10.0, 30.0)))
+
+
+def test_difference_ci_pairs_the_test_episodes() -> None:
+    rng = np.random.default_rng(0)
+    episodes = rng.normal(0, 10, size=20)  # a spread over episodes that both policies share
+    better = episodes + 1.0 + rng.normal(0, 0.05, size=(3, 20))  # three seeds, one unit above everywhere
+    diff, low, high = stats.difference_ci(better, episodes[None, :])
+    assert 0 < low <= diff <= high and diff == pytest.approx(1.0, abs=0.1)
+    assert high - low < 0.5  # unpaired, the shared spread of 10 would swamp the shift
+    assert stats.difference_ci(better, episodes[None, :]) == (diff, low, high)  # seeded
+    with pytest.raises(ValueError, match="different episodes"):
+        stats.difference_ci(better, episodes[None, :10])
+
+
+def test_iqm_ci_covers_the_iqm_and_narrows_with_more_episodes() -> None:
+    rng = np.random.default_rng(1)
+    few, many = rng.normal(5, 2, size=(1, 10)), rng.normal(5, 2, size=(1, 400))
+    value, low, high = stats.iqm_ci(few)
+    assert low <= value <= high
+    _, low2, high2 = stats.iqm_ci(many)
+    assert low2 < 5 < high2 and high2 - low2 < high - low
+
+
+@pytest.mark.parametrize(
+    ("relation", "interval", "expected"),
+    [
+        ("above", (0.5, 2.0), "holds"),
+        ("above", (-2.0, -0.5), "does not hold"),
+        ("above", (-0.5, 2.0), "inconclusive"),
+        ("below", (-2.0, -0.5), "holds"),
+        ("less_variable", (0.1, 0.3), "does not hold"),
+        ("not_above", (-0.5, 2.0), "holds"),
+        ("not_above", (0.5, 2.0), "does not hold"),
+    ],
+)
+def test_verdict_reads_the_interval_of_the_difference(relation: str, interval: tuple, expected: str) -> None:
+    assert stats.verdict(relation, *interval) == expected
+
+
+def test_a_claim_holds_only_when_every_comparison_holds() -> None:
+    from gym4real.core.rl.reproduce import check_claim
+    from gym4real.core.specs import Claim
+
+    rng = np.random.default_rng(2)
+    base = rng.normal(0, 1, size=(1, 30))
+    scores = {"agent": base + 5 + rng.normal(0, 0.1, (2, 30)), "weak": base, "strong": base + 10, "same": base + 5}
+    assert check_claim(Claim("beats weak", "agent", "above", ("weak",)), scores)["verdict"] == "holds"
+    assert check_claim(Claim("beats both", "agent", "above", ("weak", "strong")), scores)["verdict"] == "does not hold"
+    tie = check_claim(Claim("beats same", "agent", "above", ("same",)), scores)
+    assert tie["verdict"] == "inconclusive" and tie["comparisons"][0]["ci95"][0] < 0 < tie["comparisons"][0]["ci95"][1]
+    assert check_claim(Claim("x", "agent", "above", ("missing",)), scores)["verdict"] == "not checked"
+    steady = {"agent": base * 0.1, "other": base}
+    assert check_claim(Claim("less spread", "agent", "less_variable", ("other",)), steady)["verdict"] == "holds"
+
+
+def test_claims_are_checked_records() -> None:
+    from gym4real.core.specs import Claim
+
+    with pytest.raises(ValueError, match="relation"):
+        Claim("t", "ppo", "beats", ("random",))
+    with pytest.raises(ValueError, match="no other policy"):
+        Claim("t", "ppo", "above", ())

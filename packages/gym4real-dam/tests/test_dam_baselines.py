@@ -123,13 +123,15 @@ def test_rl_presets_hold_the_papers_hyperparameters() -> None:
     assert paper["total_timesteps"] == 200_000 and paper["normalize_obs"] is True
     assert paper["policy_kwargs"] == {"net_arch": [16, 16], "log_std_init": -0.5}
     hp = paper["hyperparams"]
+    # the table's "Batch Size 32" is skrl's mini_batches: 32 mini-batches of 2048 / 32 = 64 transitions
     assert (hp["n_steps"], hp["batch_size"], hp["n_epochs"], hp["gamma"], hp["learning_rate"]) == (
         2048,
-        32,
+        2048 // 32,
         10,
         0.995,
         8e-6,
     )
+    assert paper["seeds"] == [123]
     smoke = load_preset(ENV_ID, "ppo", "smoke")
     assert smoke["total_timesteps"] <= 4000 and smoke["policy_kwargs"] == paper["policy_kwargs"]
     for preset in (paper, smoke):

@@ -28,8 +28,10 @@ def test_registration_matches_the_manifest_and_presets() -> None:
     assert sorted(reg.envs[ENV_ID].presets) == TradingConfig.presets()
     assert sorted(reg.baselines[ENV_ID]) == ["buy_and_hold", "flat", "random", "sell_and_hold"]
     assert {(a, p) for (e, a, p) in reg.trainings if e == ENV_ID} == {
-        (a, p) for a in ("ppo", "dqn") for p in ("paper", "smoke")
+        (a, p) for a in ("ppo", "dqn") for p in ("paper", "smoke", "hourly")
     }
+    # the hourly stand-in of the paper's minute data is what `gym4real reproduce --budget paper` trains
+    assert {reg.trainings[(ENV_ID, a, "hourly")].budget for a in ("ppo", "dqn")} == {"paper"}
 
 
 def test_protocol_lists_every_test_day_in_order() -> None:

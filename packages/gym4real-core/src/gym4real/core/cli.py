@@ -133,10 +133,13 @@ def _cmd_train(args: argparse.Namespace) -> None:
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> None:
+    from gym4real.core.registry import list_envs
     from gym4real.core.rl.reproduce import reproduce
 
-    report = reproduce(args.env_id, preset=args.preset, seed=args.seed, out=args.out, progress=not args.quiet)
-    print(report)
+    if bool(args.env_ids) == args.all:
+        raise Gym4RealError("name the environments to reproduce, or pass --all (not both)")
+    env_ids = list_envs() if args.all else args.env_ids
+    print(reproduce(env_ids, args.budget, args.seeds, args.out, progress=not args.quiet, page=args.page))
 
 
 def _cmd_dataset(args: argparse.Namespace) -> None:
@@ -225,12 +228,22 @@ def _parser() -> argparse.ArgumentParser:
     train.add_argument("--quiet", action="store_true", help="no progress bar")
 
     rep = _command(
-        sub, "reproduce", "train (or load) the paper's agent and benchmark it against the baselines", _cmd_reproduce
+        sub,
+        "reproduce",
+        "train the paper's agents over seeds, test them beside the baselines, check the paper's claims",
+        _cmd_reproduce,
     )
-    rep.add_argument("env_id", help=ENV_ID_HELP)
-    rep.add_argument("--preset", default="paper", help="training preset of every algorithm (paper, smoke)")
-    rep.add_argument("--seed", type=int, default=0, help="seed of the training runs (default 0)")
-    rep.add_argument("--out", default=None, help="output folder (default results/reproduce-<env>-<preset>)")
+    rep.add_argument("env_ids", nargs="*", metavar="ENV_ID", help=f"{ENV_ID_HELP} (several allowed)")
+    rep.add_argument("--all", action="store_true", help="every installed environment")
+    rep.add_argument(
+        "--budget",
+        choices=["paper", "quick"],
+        default="paper",
+        help="paper: the appendix's settings (hours); quick: the smoke presets (minutes, checks the pipeline)",
+    )
+    rep.add_argument("--seeds", type=int, default=None, help="seeds per algorithm (default: the paper's)")
+    rep.add_argument("--out", default="results/reproduce", help="output folder; finished runs there are reused")
+    rep.add_argument("--page", default=None, help="also write the results page and figures into this folder")
     rep.add_argument("--quiet", action="store_true", help="no progress bar")
 
     dataset = sub.add_parser("dataset", help="offline-RL datasets", description="Offline-RL datasets.")

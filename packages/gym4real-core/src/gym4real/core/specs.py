@@ -117,6 +117,36 @@ class BaselineSpec:
         _check(bool(_ENTRY.match(self.entry_point)), f"entry point `{self.entry_point}` is not `module:attr`")
 
 
+#: How a claim compares its policy with the others (see :class:`Claim`).
+RELATIONS: tuple[str, ...] = ("above", "below", "not_above", "less_variable")
+
+
+@dataclass(frozen=True)
+class Claim:
+    """A claim of the paper about an environment's test comparison, checked by ``gym4real reproduce``.
+
+    Each comparison of ``policy`` with one of ``others`` is decided by the stratified-bootstrap 95 %
+    confidence interval of the difference of a statistic of the per-episode objective (over training seeds
+    and test episodes): the interquartile mean, or the standard deviation for ``less_variable``.
+
+    Args:
+        text: The claim in the paper's words, with where it is made.
+        policy: The RL algorithm (``ppo``, ``qlearning``, ...) or baseline the claim is about.
+        relation: ``above`` (its IQM is above each of ``others``'), ``below``, ``not_above`` (not
+            significantly above any of them) or ``less_variable`` (its standard deviation is below theirs).
+        others: The policies compared with: baselines or RL algorithms.
+    """
+
+    text: str
+    policy: str
+    relation: str
+    others: tuple[str, ...]
+
+    def __post_init__(self) -> None:
+        _check(self.relation in RELATIONS, f"claim relation `{self.relation}` is not one of {list(RELATIONS)}")
+        _check(bool(self.others), f"claim `{self.text}` compares `{self.policy}` with no other policy")
+
+
 @dataclass(frozen=True)
 class BenchmarkSpec:
     """The paper's evaluation protocol of an environment.
@@ -134,6 +164,7 @@ class BenchmarkSpec:
         description: One line on the protocol.
         step_unit: What one step of the protocol's env is, the x-axis label of per-step figures (``"day"``,
             ``"hour"``, ``"second"``).
+        claims: The paper's claims about this comparison, checked by ``gym4real reproduce``.
     """
 
     env_id: str
@@ -145,6 +176,7 @@ class BenchmarkSpec:
     figures: str | None = None
     description: str = ""
     step_unit: str = "step"
+    claims: tuple[Claim, ...] = ()
 
     def __post_init__(self) -> None:
         _check(bool(_ENTRY.match(self.protocol)), f"protocol `{self.protocol}` is not `module:function`")
@@ -163,13 +195,17 @@ class TrainingSpec:
         algo: ``ppo``, ``dqn``, ``qlearning`` or ``sarsa``.
         preset: Preset name (``paper``, ``smoke``).
         resource: ``"package:relative/path.yaml"`` of the YAML holding the hyperparameters.
+        budget: The ``gym4real reproduce`` budget (``paper`` or ``quick``) this preset serves in place of the
+            preset named for it (``paper``; ``smoke`` for ``quick``), for a stand-in of the paper's setting.
     """
 
     env_id: str
     algo: str
     preset: str
     resource: str
+    budget: str | None = None
 
     def __post_init__(self) -> None:
         _check(bool(_SNAKE.match(self.algo)), f"algo `{self.algo}` is not lower-case snake case")
         _check(":" in self.resource, f"resource `{self.resource}` is not `package:path`")
+        _check(self.budget in (None, "paper", "quick"), f"budget `{self.budget}` is not `paper`, `quick` or None")

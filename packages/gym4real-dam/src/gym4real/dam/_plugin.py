@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from gym4real.core.datasets import upstream
 from gym4real.core.hookspecs import hookimpl
-from gym4real.core.specs import BaselineSpec, BenchmarkSpec, DatasetSpec, EnvSpec, TrainingSpec
+from gym4real.core.specs import BaselineSpec, BenchmarkSpec, Claim, DatasetSpec, EnvSpec, TrainingSpec
 
 #: The gym4real plugin API this module is written for (checked against gym4real-core's PLUGIN_API_VERSION).
 plugin_api = "0.1"
@@ -98,6 +98,14 @@ def gym4real_register_benchmarks() -> list[BenchmarkSpec | TrainingSpec]:
             final_info=("recorded_level_rmse",),
             description="the 13 test years in file order, one one-year episode each, from 0.35 m",
             step_unit="day",
+            claims=(
+                Claim(
+                    "PPO performs better than the rule-based strategies on the 13 test years (Sec. 2.1)",
+                    "ppo",
+                    "above",
+                    ("random", "mean", "max", "ead"),
+                ),
+            ),
         ),
         *(TrainingSpec(ENV_ID, "ppo", preset, f"gym4real.dam:rl/ppo_{preset}.yaml") for preset in ("paper", "smoke")),
     ]

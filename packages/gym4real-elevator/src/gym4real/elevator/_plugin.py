@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from gym4real.core.hookspecs import hookimpl
-from gym4real.core.specs import BaselineSpec, BenchmarkSpec, DatasetSpec, EnvSpec, TrainingSpec
+from gym4real.core.specs import BaselineSpec, BenchmarkSpec, Claim, DatasetSpec, EnvSpec, TrainingSpec
 
 #: The gym4real plugin API this module is written for (checked against gym4real-core's PLUGIN_API_VERSION).
 plugin_api = "0.1"
@@ -60,6 +60,21 @@ def gym4real_register_benchmarks() -> list[BenchmarkSpec | TrainingSpec]:
             policies=("random", "longest_first", "shortest_first"),
             description="30 episodes of the seed-1234 evaluation sequence",
             step_unit="second",
+            claims=(
+                Claim(
+                    "Q-learning consistently outperforms the rule-based solutions (Sec. 2.2)",
+                    "qlearning",
+                    "above",
+                    ("random", "longest_first", "shortest_first"),
+                ),
+                Claim(
+                    "SARSA consistently outperforms the rule-based solutions (Sec. 2.2)",
+                    "sarsa",
+                    "above",
+                    ("random", "longest_first", "shortest_first"),
+                ),
+                Claim("Q-learning shows higher performance than SARSA (Sec. 2.2)", "qlearning", "above", ("sarsa",)),
+            ),
         ),
         *(
             TrainingSpec(ENV_ID, algo, preset, f"gym4real.elevator:rl/{algo}_{preset}.yaml")

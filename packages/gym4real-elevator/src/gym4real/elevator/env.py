@@ -191,6 +191,12 @@ class ElevatorEnv(gym.Env[dict[str, Any], int]):
     ) -> tuple[dict[str, Any], dict[str, Any]]:
         """Start an episode: new arrival rates and arrivals, empty cabin and queues."""
         super().reset(seed=seed)
+        table, position = self._draw_episode()
+        self._reset_state(table, position)
+        return self._obs(), self._info({"delivery": 0.0, "waiting": 0.0})
+
+    def _draw_episode(self) -> tuple[np.ndarray, int]:
+        """Draw a new episode's rates (kept in ``rates``), arrivals table (with a closing row of zeros) and start."""
         cfg, f = self.config, self.config.floors
         n = len(self._served_floors)
         if self._upstream:
@@ -206,8 +212,7 @@ class ElevatorEnv(gym.Env[dict[str, Any], int]):
         else:
             position = int(self.np_random.integers(self._top + 1))
         self.rates = rates
-        self._reset_state(np.vstack([table, np.zeros((1, n), dtype=np.int64)]), position)
-        return self._obs(), self._info({"delivery": 0.0, "waiting": 0.0})
+        return np.vstack([table, np.zeros((1, n), dtype=np.int64)]), position
 
     def step(self, action: int) -> tuple[dict[str, Any], float, bool, bool, dict[str, Any]]:
         """Move or open the doors, then let last second's arrivals join the queues."""
@@ -254,6 +259,16 @@ class ElevatorEnv(gym.Env[dict[str, Any], int]):
                 queues[floor] += join
                 self._queue_obs[self._obs_index[floor]] += join
                 self.turned_away += k - join
+
+    def tabular_kernel(self) -> Any:
+        """This env's dynamics as compiled functions, for ``gym4real train`` Q-learning and SARSA (needs numba).
+
+        Returns a :class:`gym4real.elevator.kernel.ElevatorKernel`; its ``load(env)`` reads the episode the env
+        has just been reset to.
+        """
+        from gym4real.elevator.kernel import ElevatorKernel
+
+        return ElevatorKernel(self)
 
     def render(self) -> str | np.ndarray | None:
         """Draw the shaft: ``ansi``, one line per floor, top floor first; ``rgb_array``, an ``H x W x 3`` frame.

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from gym4real.core.datasets import upstream
 from gym4real.core.hookspecs import hookimpl
-from gym4real.core.specs import BaselineSpec, BenchmarkSpec, DatasetSpec, EnvSpec, TrainingSpec
+from gym4real.core.specs import BaselineSpec, BenchmarkSpec, Claim, DatasetSpec, EnvSpec, TrainingSpec
 
 #: The gym4real plugin API this module is written for (checked against gym4real-core's PLUGIN_API_VERSION).
 plugin_api = "0.1"
@@ -127,6 +127,14 @@ def gym4real_register_benchmarks() -> list[BenchmarkSpec | TrainingSpec]:
             final_info=("soh",),
             description="one 2019 episode (8759 h) per test household 370..397; objective in EUR",
             step_unit="hour",
+            claims=(
+                Claim(
+                    "PPO achieves higher profit than the rule-based strategies (Sec. 2.3)",
+                    "ppo",
+                    "above",
+                    ("random", "only_market", "battery_first", "fifty_fifty"),
+                ),
+            ),
         ),
         *(
             TrainingSpec(ENV_ID, "ppo", preset, f"gym4real.microgrid:rl/ppo_{preset}.yaml")

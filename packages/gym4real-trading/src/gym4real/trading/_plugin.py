@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from gym4real.core.hookspecs import hookimpl
-from gym4real.core.specs import BaselineSpec, BenchmarkSpec, DatasetSpec, EnvSpec, TrainingSpec
+from gym4real.core.specs import BaselineSpec, BenchmarkSpec, Claim, DatasetSpec, EnvSpec, TrainingSpec
 
 #: The gym4real plugin API this module is written for (checked against gym4real-core's PLUGIN_API_VERSION).
 plugin_api = "0.1"
@@ -94,10 +94,33 @@ def gym4real_register_benchmarks() -> list[BenchmarkSpec | TrainingSpec]:
             figures="gym4real.trading.evaluation:pnl_figures",
             description="every trading day of the test split, in order (daily P&L in USD)",
             step_unit="hour of the trading day",
+            claims=tuple(
+                claim
+                for algo, name in (("ppo", "PPO"), ("dqn", "DQN"))
+                for claim in (
+                    Claim(
+                        f"{name} does not consistently outperform the passive baselines (Sec. 2.5)",
+                        algo,
+                        "not_above",
+                        ("buy_and_hold", "sell_and_hold"),
+                    ),
+                    Claim(
+                        f"{name} reduces the daily variability of the P&L (Sec. 2.5)",
+                        algo,
+                        "less_variable",
+                        ("buy_and_hold", "sell_and_hold"),
+                    ),
+                )
+            ),
         ),
         *(
             TrainingSpec(ENV_ID, algo, preset, f"gym4real.trading:rl/{algo}_{preset}.yaml")
             for algo in ("ppo", "dqn")
             for preset in ("paper", "smoke")
+        ),
+        # the hourly EUR/USD stand-in of the paper's minute data, run by `gym4real reproduce --budget paper`
+        *(
+            TrainingSpec(ENV_ID, algo, "hourly", f"gym4real.trading:rl/{algo}_hourly.yaml", budget="paper")
+            for algo in ("ppo", "dqn")
         ),
     ]

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from gym4real.core.datasets import upstream
 from gym4real.core.hookspecs import hookimpl
-from gym4real.core.specs import BaselineSpec, BenchmarkSpec, DatasetSpec, EnvSpec, TrainingSpec
+from gym4real.core.specs import BaselineSpec, BenchmarkSpec, Claim, DatasetSpec, EnvSpec, TrainingSpec
 
 #: The gym4real plugin API this module is written for (checked against gym4real-core's PLUGIN_API_VERSION).
 plugin_api = "0.1"
@@ -117,6 +117,20 @@ def gym4real_register_benchmarks() -> list[BenchmarkSpec | TrainingSpec]:
             objective=("dsr", "overflow"),
             description="test profiles 0..19 (the paper's 20 episodes); return = cumulative DSR - OVF",
             step_unit="hour",
+            claims=(
+                Claim(
+                    "DQN achieves a higher resilience than the other baselines (Sec. 2.6)",
+                    "dqn",
+                    "above",
+                    ("random", "p78", "p79", "default"),
+                ),
+                Claim(
+                    "DQN has a more consistent behaviour, with low variance (Sec. 2.6)",
+                    "dqn",
+                    "less_variable",
+                    ("random", "p78", "p79", "default"),
+                ),
+            ),
         ),
         *(TrainingSpec(ENV_ID, "dqn", preset, f"gym4real.wds:rl/dqn_{preset}.yaml") for preset in ("paper", "smoke")),
     ]

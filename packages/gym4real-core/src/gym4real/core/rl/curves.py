@@ -4,13 +4,18 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
 
 
 class LearningCurve:
-    """Rows of (training progress, evaluation returns), written as ``curve.csv`` and ``curve.png``."""
+    """Rows of (training progress, evaluation returns), written as ``curve.csv`` and ``curve.png``.
+
+    The progress column is named by ``unit`` (``timesteps`` or ``episodes``); ``eval_episodes`` counts the
+    episodes of each evaluation.
+    """
 
     def __init__(self, out: Path, unit: str) -> None:
         self.out = out
@@ -28,31 +33,46 @@ class LearningCurve:
                 "mean_return": mean,
                 "ci95_low": mean - half,
                 "ci95_high": mean + half,
-                "episodes": len(x),
+                "eval_episodes": len(x),
             }
         )
         self.write()
         return mean
+
+    @classmethod
+    def load(cls, out: Path, unit: str) -> LearningCurve:
+        """The curve written in ``out`` so far (empty when there is none): a resumed run appends to it."""
+        curve = cls(out, unit)
+        if curve.csv.exists():
+            curve.rows = pd.read_csv(curve.csv).to_dict("records")
+        return curve
 
     @property
     def csv(self) -> Path:
         """Path of the CSV file."""
         return self.out / "curve.csv"
 
-    def write(self) -> None:
-        """Write the CSV and the figure."""
+    def figure(self) -> Any:
+        """The learning curve as a matplotlib figure (mean evaluation return and its 95 % band)."""
         import matplotlib
 
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        self.out.mkdir(parents=True, exist_ok=True)
         frame = pd.DataFrame(self.rows)
-        frame.to_csv(self.csv, index=False)
         fig, ax = plt.subplots(figsize=(6, 3.5))
         ax.plot(frame[self.unit], frame["mean_return"], marker="o")
         ax.fill_between(frame[self.unit], frame["ci95_low"], frame["ci95_high"], alpha=0.25)
         ax.set(xlabel=self.unit, ylabel="evaluation return", title="learning curve (mean, 95 % CI)")
         fig.tight_layout()
+        return fig
+
+    def write(self) -> None:
+        """Write the CSV and the figure."""
+        import matplotlib.pyplot as plt
+
+        self.out.mkdir(parents=True, exist_ok=True)
+        pd.DataFrame(self.rows).to_csv(self.csv, index=False)
+        fig = self.figure()
         fig.savefig(self.out / "curve.png", dpi=110)
         plt.close(fig)

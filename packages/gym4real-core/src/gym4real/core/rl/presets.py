@@ -29,6 +29,14 @@ class _Preset(BaseModel):
         None, description="Arguments of the validation env (default: `env_kwargs`)."
     )
     eval_episodes: Positive = Field(5, description="Episodes of each evaluation (consecutive seeds).")
+    seeds: list[Annotated[int, Field(ge=0)]] = Field(
+        default_factory=list, description="The paper's training seeds: the default seeds of `gym4real reproduce`."
+    )
+    eval_seed: Annotated[int, Field(ge=0)] = Field(
+        10_000,
+        description="Seed of the first validation episode (model selection); the block `eval_seed, eval_seed + 1, "
+        "...` must be disjoint from the test protocol's seeds.",
+    )
 
     @model_validator(mode="after")
     def _eval_env_defaults_to_training_env(self) -> _Preset:

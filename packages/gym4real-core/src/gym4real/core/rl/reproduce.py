@@ -1,45 +1,423 @@
-"""``gym4real reproduce``: train (or load) the paper's agent and benchmark it against the baselines."""
+"""``gym4real reproduce``: train the paper's agents over several seeds, test them, check the paper's claims.
+
+For each environment, every algorithm with a training preset of the budget (``paper``: the paper's
+settings; ``quick``: the ``smoke`` presets, minutes) is trained once per seed, unless a finished run of
+the same settings is already in the output folder (an unfinished one resumes from its last checkpoint).
+Every model and every baseline of the protocol then runs the test protocol; the per-episode objective
+gives, per policy, a ``(seeds, episodes)`` score matrix, summarised by its IQM with a 95 % bootstrap
+interval over the test episodes (:mod:`gym4real.core.stats`). Each claim that the domain declares
+(:class:`~gym4real.core.specs.Claim`) is checked with the interval of the difference.
+
+Layout of the output folder ``OUT``::
+
+    OUT/results.md                        the results page (every environment and budget found in OUT)
+    OUT/claims.json, OUT/summary.csv      every claim's verdict; every policy's row
+    OUT/<env>/<budget>/runs/<algo>/seed<S>/   one training run (model, curve.csv, settings.json, run.json)
+    OUT/<env>/<budget>/summary.csv, claims.json, report.json
+    OUT/<env>/<budget>/cumulative_reward.png, returns_boxplot.png, learning_curves.png, learning_curves.csv
+    OUT/<env>/<budget>/error.txt          why the environment could not be run (missing data, ...)
+"""
 
 from __future__ import annotations
 
+import json
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+import pandas as pd
 
-from gym4real.core.benchmark import benchmark, protocol
+from gym4real.core import stats
+from gym4real.core.errors import ConfigError, Gym4RealError
 from gym4real.core.registry import registry
-from gym4real.core.rl.train import default_out, train
+from gym4real.core.rl.presets import load_preset
+from gym4real.core.rl.train import TrainingRun, finished_run, train, versions
+from gym4real.core.specs import Claim
+
+#: Budget -> the preset that serves it when no preset declares it (``TrainingSpec.budget``).
+BUDGETS = {"paper": "paper", "quick": "smoke"}
+#: Seeds when a budget's presets name none (the paper's appendix gives no seed).
+DEFAULT_SEEDS = 5
+#: Seeds of the quick budget (the first of the paper's).
+QUICK_SEEDS = 2
+
+
+def slug(env_id: str) -> str:
+    """``gym4real/dam-v0`` -> ``dam-v0``."""
+    return env_id.split("/", 1)[-1]
+
+
+def presets(env_id: str, budget: str) -> dict[str, str]:
+    """The training preset of each algorithm of ``env_id`` for ``budget``: one declared for it, else the budget's."""
+    if budget not in BUDGETS:
+        raise ConfigError(f"budget `{budget}` is not one of {sorted(BUDGETS)}")
+    found: dict[str, str] = {}
+    for (env, algo, preset), spec in sorted(registry().trainings.items()):
+        if env == env_id and spec.budget == budget:
+            found[algo] = preset
+    for env, algo, preset in sorted(registry().trainings):
+        if env == env_id and preset == BUDGETS[budget]:
+            found.setdefault(algo, preset)
+    return found
+
+
+def seeds(env_id: str, budget: str, n: int | None = None) -> list[int]:
+    """The training seeds: the paper's (from the ``paper`` budget's presets), then 0, 1, 2, ...
+
+    Args:
+        env_id: A registered id.
+        budget: ``paper`` or ``quick``.
+        n: How many (default: as many as the paper used, 5 if it names none; 2 for ``quick``).
+    """
+    paper: list[int] = []
+    for algo, preset in presets(env_id, "paper").items():
+        for s in load_preset(env_id, algo, preset)["seeds"]:
+            if s not in paper:
+                paper.append(s)
+    if n is None:
+        n = len(paper) or DEFAULT_SEEDS
+        if budget == "quick":
+            n = min(n, QUICK_SEEDS)
+    if n < 1:
+        raise ConfigError(f"--seeds must be at least 1, not {n}")
+    extra = (s for s in range(10**6) if s not in paper)
+    return (paper + [next(extra) for _ in range(max(0, n - len(paper)))])[:n]
+
+
+@dataclass(frozen=True)
+class Item:
+    """One training run of the plan."""
+
+    env_id: str
+    algo: str
+    preset: str
+    seed: int
+    folder: Path
+
+
+def plan(env_id: str, budget: str, n_seeds: int | None, out: Path) -> list[Item]:
+    """The training runs of ``env_id`` for ``budget``, in ``out/<env>/<budget>/runs/<algo>/seed<S>``."""
+    algos = presets(env_id, budget)
+    if not algos:
+        raise ConfigError(f"`{env_id}` registers no training preset for the `{budget}` budget")
+    base = out / slug(env_id) / budget / "runs"
+    return [
+        Item(env_id, algo, preset, s, base / algo / f"seed{s}")
+        for algo, preset in algos.items()
+        for s in seeds(env_id, budget, n_seeds)
+    ]
+
+
+class PlanProgress:
+    """One progress bar over a whole plan: its training runs and each environment's test, one unit each."""
+
+    def __init__(self, total: int, show: bool) -> None:
+        self.closed = 0
+        self.bar = None
+        if show:
+            from tqdm.auto import tqdm
+
+            self.bar = tqdm(
+                total=total,
+                desc="reproduce",
+                bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.2f}/{total} runs and tests [{elapsed}<{remaining}]",
+            )
+
+    def item(self, env_id: str, done: int, total: int) -> None:
+        """The current item has ``done`` of its ``total`` units done (a trainer may overshoot its budget)."""
+        if self.bar is not None:
+            self.bar.set_description(f"reproduce {slug(env_id)}", refresh=False)
+            self.bar.update(self.closed + min(done / max(total, 1), 1.0) - self.bar.n)
+
+    def close_item(self) -> None:
+        """The current item is finished."""
+        self.closed += 1
+        if self.bar is not None:
+            self.bar.update(self.closed - self.bar.n)
+
+    def close(self) -> None:
+        """Close the bar."""
+        if self.bar is not None:
+            self.bar.close()
+
+
+def _scores(result: Any, name: str) -> np.ndarray:
+    return np.asarray(result.objective_values(name), dtype=float)
+
+
+@dataclass
+class EnvReport:
+    """What :func:`reproduce_env` found for one environment and budget."""
+
+    env_id: str
+    budget: str
+    runs: list[TrainingRun]
+    scores: dict[str, np.ndarray]
+    table: pd.DataFrame
+    claims: list[dict[str, Any]]
+    wall_time_s: float
+    folder: Path
+
+
+def _pooled(env_id: str, baseline: Any, tested: dict[str, list[Any]]) -> Any:
+    """One BenchmarkResult with the baselines and, per algorithm, the test episodes of all its seeds."""
+    from gym4real.core.benchmark import BenchmarkResult
+
+    n_runs = max([1, *(len(v) for v in tested.values())])
+    pooled = BenchmarkResult(env_id, list(baseline.episodes) * n_runs, objective=baseline.objective)
+    for name in baseline.returns:
+        pooled.returns[name] = baseline.returns[name]
+        pooled.rewards[name] = baseline.rewards[name]
+        pooled.components[name] = baseline.components[name]
+        pooled.final_info[name] = baseline.final_info[name]
+    for algo, results in tested.items():
+        keys = [next(iter(r.returns)) for r in results]
+        pooled.returns[algo] = [x for r, k in zip(results, keys, strict=True) for x in r.returns[k]]
+        pooled.rewards[algo] = [x for r, k in zip(results, keys, strict=True) for x in r.rewards[k]]
+        comps = sorted({c for r, k in zip(results, keys, strict=True) for c in r.components[k]})
+        pooled.components[algo] = {
+            c: [x for r, k in zip(results, keys, strict=True) for x in r.components[k].get(c, [])] for c in comps
+        }
+        pooled.final_info[algo] = {
+            f: [x for r, k in zip(results, keys, strict=True) for x in r.final_info[k].get(f, [])]
+            for f in results[0].final_info[keys[0]]
+        }
+    return pooled
+
+
+def check_claim(claim: Claim, scores: dict[str, np.ndarray]) -> dict[str, Any]:
+    """The verdict of one claim, with every comparison's difference and 95 % interval."""
+    statistic = "std" if claim.relation == "less_variable" else "iqm"
+    record: dict[str, Any] = {
+        "text": claim.text,
+        "policy": claim.policy,
+        "relation": claim.relation,
+        "statistic": statistic,
+        "comparisons": [],
+    }
+    missing = [p for p in (claim.policy, *claim.others) if p not in scores]
+    if missing:
+        record["verdict"] = "not checked"
+        record["reason"] = f"no test scores of {missing}"
+        return record
+    verdicts = []
+    for other in claim.others:
+        diff, low, high = stats.difference_ci(scores[claim.policy], scores[other], statistic)
+        verdicts.append(stats.verdict(claim.relation, low, high))
+        record["comparisons"].append({"other": other, "difference": diff, "ci95": [low, high], "verdict": verdicts[-1]})
+    if "does not hold" in verdicts:
+        record["verdict"] = "does not hold"
+    elif all(v == "holds" for v in verdicts):
+        record["verdict"] = "holds"
+    else:
+        record["verdict"] = "inconclusive"
+    return record
+
+
+def _table(scores: dict[str, np.ndarray], returns: dict[str, list[float]], runs: list[TrainingRun]) -> pd.DataFrame:
+    rows = []
+    for name, matrix in scores.items():
+        mine = [r for r in runs if r.algo == name]
+        value, low, high = stats.iqm_ci(matrix)
+        row: dict[str, Any] = {
+            "policy": name,
+            "kind": "agent" if mine else "baseline",
+            "seeds": matrix.shape[0] if mine else 0,
+            "episodes": matrix.shape[1],
+            "iqm": value,
+            "ci95_low": low,
+            "ci95_high": high,
+            "mean": float(matrix.mean()),
+            "std": float(matrix.std()),
+            "mean_return": float(np.mean(returns[name])),
+            "seed_iqm_min": float(min(stats.iqm(m) for m in matrix)),
+            "seed_iqm_max": float(max(stats.iqm(m) for m in matrix)),
+        }
+        if mine:
+            row["train_wall_time_s"] = float(sum(r.wall_time_s for r in mine))
+            row["env_steps"] = int(sum(r.env_steps + r.eval_steps for r in mine))
+            row["env_steps_per_s"] = row["env_steps"] / row["train_wall_time_s"]
+        rows.append(row)
+    return pd.DataFrame(rows).set_index("policy")
+
+
+def _curves(runs: list[TrainingRun], folder: Path) -> None:
+    """``learning_curves.csv`` and ``.png``: per algorithm, the mean over seeds and its 95 % band."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    frames = []
+    fig, ax = plt.subplots(figsize=(7, 4))
+    unit = "timesteps"
+    for algo in sorted({r.algo for r in runs}):
+        curves = [pd.read_csv(r.curve_csv) for r in runs if r.algo == algo and r.curve_csv.exists()]
+        if not curves:
+            continue
+        unit = "episodes" if "episodes" in curves[0].columns else "timesteps"
+        x = np.array(sorted({v for c in curves for v in c[unit]}))
+        rows = np.full((len(curves), len(x)), np.nan)
+        for i, c in enumerate(curves):
+            rows[i, np.searchsorted(x, c[unit])] = c["mean_return"]
+        if len(curves) > 1:
+            mean, low, high = stats.t_band(rows)
+            band = "95 % t-interval over seeds"
+        else:
+            mean, low, high = rows[0], curves[0]["ci95_low"].to_numpy(), curves[0]["ci95_high"].to_numpy()
+            band = "95 % interval over evaluation episodes (one seed)"
+        frames.append(
+            pd.DataFrame(
+                {"algo": algo, unit: x, "seeds": np.sum(~np.isnan(rows), 0), "mean": mean, "low": low, "high": high}
+            )
+        )
+        ax.plot(x, mean, label=f"{algo} ({len(curves)} seed{'s' if len(curves) > 1 else ''}; {band})")
+        ax.fill_between(x, low, high, alpha=0.25)
+    if not frames:
+        plt.close(fig)
+        return
+    ax.set(xlabel=unit, ylabel="validation return", title=f"{runs[0].env_id}: learning curves (mean, 95 % band)")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(folder / "learning_curves.png", dpi=100)
+    plt.close(fig)
+    pd.concat(frames).to_csv(folder / "learning_curves.csv", index=False)
+
+
+def reproduce_env(
+    env_id: str,
+    budget: str,
+    n_seeds: int | None,
+    out: Path,
+    progress: PlanProgress | None = None,
+) -> EnvReport:
+    """Train (or reuse), test and check the claims of one environment; write its folder."""
+    from gym4real.core import plots
+    from gym4real.core.benchmark import benchmark, protocol
+
+    items = plan(env_id, budget, n_seeds, out)
+    folder = out / slug(env_id) / budget
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "error.txt").unlink(missing_ok=True)
+    start = time.perf_counter()
+    runs: list[TrainingRun] = []
+    for item in items:
+        run = finished_run(item.folder, item.env_id, item.algo, item.preset, item.seed)
+        if run is None:
+
+            def on_progress(done: int, total: int, _env: str = env_id) -> None:
+                if progress is not None:
+                    progress.item(_env, done, total)
+
+            run = train(item.env_id, item.algo, item.preset, item.seed, item.folder, on_progress)
+        if progress is not None:
+            progress.close_item()
+        runs.append(run)
+    spec = protocol(env_id)
+    baselines = list(spec.policies)
+    test_start = time.perf_counter()
+    tested: dict[str, list[Any]] = {}
+    base = benchmark(env_id, baselines, episodes="test")
+    for run in runs:
+        tested.setdefault(run.algo, []).append(benchmark(env_id, [run.policy], episodes="test"))
+    scores = {name: _scores(base, name)[None, :] for name in baselines}
+    for algo, results in tested.items():
+        scores[algo] = np.stack([_scores(r, next(iter(r.returns))) for r in results])
+    test_wall = time.perf_counter() - test_start
+    pooled = _pooled(env_id, base, tested)
+    table = _table(scores, pooled.returns, runs)
+    claims = [{"env_id": env_id, **check_claim(c, scores)} for c in spec.claims]
+    wall = time.perf_counter() - start
+    plots.save_figures(pooled, folder)
+    _curves(runs, folder)
+    table.to_csv(folder / "summary.csv")
+    (folder / "claims.json").write_text(json.dumps(claims, indent=1))
+    report = {
+        "env_id": env_id,
+        "budget": budget,
+        "command": f"gym4real reproduce {env_id} --budget {budget} --seeds {len(items) // len(tested)} --out {out}",
+        "objective": list(spec.objective) or ["return"],
+        "protocol": spec.description,
+        "seeds": sorted({r.seed for r in runs}),
+        "presets": {r.algo: r.preset for r in runs},
+        "runs": [
+            {
+                "algo": r.algo,
+                "seed": r.seed,
+                "wall_time_s": r.wall_time_s,
+                "env_steps": r.env_steps,
+                "eval_steps": r.eval_steps,
+                "env_steps_per_s": r.steps_per_s,
+            }
+            for r in runs
+        ],
+        "training_wall_time_s": sum(r.wall_time_s for r in runs),
+        "test_wall_time_s": test_wall,
+        "versions": versions(),
+    }
+    (folder / "report.json").write_text(json.dumps(report, indent=1))
+    if progress is not None:
+        progress.close_item()
+    return EnvReport(env_id, budget, runs, scores, table, claims, wall, folder)
 
 
 def reproduce(
-    env_id: str, preset: str = "paper", seed: int = 0, out: str | Path | None = None, progress: bool = False
+    env_ids: Sequence[str],
+    budget: str = "paper",
+    n_seeds: int | None = None,
+    out: str | Path = "results/reproduce",
+    progress: bool = False,
+    page: str | Path | None = None,
 ) -> str:
-    """Train every registered algorithm of ``preset`` (or reuse a saved model) and benchmark on the test protocol.
+    """Reproduce the paper's results of ``env_ids``; return a text report (tables and claim verdicts).
 
-    Returns the summary table followed by the paper's qualitative claim, checked: each RL agent's mean
-    objective is above every baseline's.
+    An environment that cannot run (missing data, a missing extra) is reported with its error, in the
+    output and in ``<env>/<budget>/error.txt``, and the others go on.
+
+    Args:
+        env_ids: Registered ids.
+        budget: ``paper`` or ``quick``.
+        n_seeds: Training seeds per algorithm (default: the paper's; see :func:`seeds`).
+        out: Output folder (see the module's docstring for its layout).
+        progress: One progress bar over the whole plan (training runs, then the tests of each env).
+        page: Also write the results page and its figures into this folder (a docs folder).
     """
-    algos = sorted(a for (e, a, p) in registry().trainings if e == env_id and p == preset)
-    folder = Path(out) if out else Path("results") / f"reproduce-{env_id.replace('/', '_')}-{preset}"
-    agents = []
-    for algo in algos:
-        run_dir = default_out(env_id, algo, preset, seed)
-        model = run_dir / ("qtable.npz" if algo in ("qlearning", "sarsa") else "model.zip")
-        if not model.exists():
-            model = train(env_id, algo, preset, seed, run_dir, progress).model_path
-        agents.append(f"{algo}:{model}")
-    baselines = list(protocol(env_id).policies)
-    result = benchmark(env_id, [*baselines, *agents], episodes="test", progress=progress, out=folder)
-    means = {name: float(np.mean(result.objective_values(name))) for name in result.returns}
-    lines = [result.table(), ""]
-    best_baseline = max(means[b] for b in baselines)
-    for agent in agents:
-        verdict = "holds" if means[agent] > best_baseline else "does NOT hold"
-        lines.append(
-            f"paper claim: {agent.split(':')[0]} above every baseline "
-            f"({means[agent]:.4g} vs best baseline {best_baseline:.4g}): {verdict}"
-        )
-    lines.append(f"results and figures in {folder}/")
-    report = "\n".join(lines)
-    (folder / "claim.txt").write_text(report + "\n")
-    return report
+    out = Path(out)
+    plans: dict[str, int] = {}
+    errors: dict[str, str] = {}
+    for env_id in env_ids:
+        try:
+            plans[env_id] = len(plan(env_id, budget, n_seeds, out))
+        except Gym4RealError as exc:
+            errors[env_id] = " ".join(str(exc).split())
+    bar = PlanProgress(sum(plans.values()) + len(plans), progress)
+    lines = []
+    items_so_far = 0
+    for env_id in plans:
+        items_so_far += plans[env_id] + 1
+        try:
+            report = reproduce_env(env_id, budget, n_seeds, out, bar)
+        except Exception as exc:  # one env's failure (missing data, a bug) must not stop the others
+            name = "" if isinstance(exc, Gym4RealError) else f"{type(exc).__name__}: "
+            errors[env_id] = name + " ".join(str(exc).split())
+        else:
+            lines += [f"== {env_id} ({budget})", report.table.to_string(float_format=lambda v: f"{v:.4g}"), ""]
+            for c in report.claims:
+                lines.append(f"claim: {c['text']} -> {c['verdict']}")
+            lines.append("")
+        while bar.closed < items_so_far:  # the remaining items of an env that failed
+            bar.close_item()
+    for env_id, error in errors.items():
+        folder = out / slug(env_id) / budget
+        folder.mkdir(parents=True, exist_ok=True)
+        (folder / "error.txt").write_text(error + "\n")
+        lines.append(f"== {env_id} ({budget}): not run: {error}")
+    bar.close()
+    from gym4real.core.rl.results_page import write_page
+
+    written = write_page(out, page)
+    lines.append(f"results in {out}/ (page {written})")
+    return "\n".join(lines)

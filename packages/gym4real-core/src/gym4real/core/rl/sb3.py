@@ -1,12 +1,17 @@
 """PPO and DQN through Stable-Baselines3 (the ``rl`` extra), on the CPU with one thread.
 
-A run writes ``model.zip`` (the best model on the validation env), ``normalize.npz`` (observation
-statistics when the preset normalises observations; numpy, not pickle) and the learning curve.
+A run writes ``model.zip`` (the best model on the validation episodes), ``normalize.npz`` (observation
+statistics when the preset normalises observations; numpy, not pickle) and the learning curve. At every
+evaluation it also writes a checkpoint (``checkpoint/``: the model, the normalisation statistics, DQN's
+replay buffer as numpy arrays, the evaluation state); a run started again in the same folder resumes from
+it, with fresh episodes in its environments.
 """
 
 from __future__ import annotations
 
 import inspect
+import json
+import shutil
 from pathlib import Path
 from typing import Any
 
@@ -14,6 +19,7 @@ import gymnasium as gym
 import numpy as np
 
 from gym4real.core.errors import ConfigError, PolicyError
+from gym4real.core.rl.train import Progress
 
 #: PyTorch's index of CPU-only wheels.
 TORCH_CPU_INDEX = "https://download.pytorch.org/whl/cpu"
@@ -137,19 +143,68 @@ def load_dqn(env: gym.Env[Any, Any], path: str | Path) -> NormalizedPolicy:
     return load_model(env, path, "dqn")
 
 
-def _save_normalization(vec: Any, path: Path) -> None:
+def _rms_arrays(vec: Any) -> dict[str, Any]:
     rms = vec.obs_rms
     data: dict[str, Any] = {"clip_obs": np.array(vec.clip_obs), "epsilon": np.array(vec.epsilon)}
     if isinstance(rms, dict):
         for k, r in rms.items():
-            data[f"mean/{k}"], data[f"var/{k}"] = r.mean, r.var
+            data[f"mean/{k}"], data[f"var/{k}"], data[f"count/{k}"] = r.mean, r.var, np.array(r.count)
     else:
-        data["mean"], data["var"] = rms.mean, rms.var
-    np.savez(path, **data)
+        data["mean"], data["var"], data["count"] = rms.mean, rms.var, np.array(rms.count)
+    ret = vec.ret_rms
+    data["ret_mean"], data["ret_var"], data["ret_count"] = np.array(ret.mean), np.array(ret.var), np.array(ret.count)
+    return data
 
 
-def train_sb3(env_id: str, hp: dict[str, Any], seed: int, out: Path, progress: bool) -> Path:
-    """Train PPO or DQN with a preset; keep the best model on the validation env. Returns ``model.zip``."""
+def _save_normalization(vec: Any, path: Path) -> None:
+    np.savez(path, **_rms_arrays(vec))
+
+
+def _load_normalization(vec: Any, path: Path) -> None:
+    with np.load(path, allow_pickle=False) as data:
+        rms = vec.obs_rms
+        for key, r in rms.items() if isinstance(rms, dict) else [("", rms)]:
+            suffix = f"/{key}" if key else ""
+            r.mean, r.var, r.count = data[f"mean{suffix}"], data[f"var{suffix}"], float(data[f"count{suffix}"])
+        vec.ret_rms.mean, vec.ret_rms.var = data["ret_mean"], data["ret_var"]
+        vec.ret_rms.count = float(data["ret_count"])
+
+
+_BUFFER_FIELDS = ("observations", "next_observations", "actions", "rewards", "dones", "timeouts")
+
+
+def _save_buffer(buffer: Any, path: Path) -> None:
+    """The filled part of a replay buffer as numpy arrays (SB3 saves it with pickle)."""
+    end = buffer.buffer_size if buffer.full else buffer.pos
+    arrays = {}
+    for name in _BUFFER_FIELDS:
+        value = getattr(buffer, name, None)
+        if isinstance(value, dict):
+            arrays.update({f"{name}/{k}": v[:end] for k, v in value.items()})
+        elif value is not None:
+            arrays[name] = value[:end]
+    np.savez(path, pos=np.array(buffer.pos), full=np.array(buffer.full), **arrays)
+
+
+def _load_buffer(buffer: Any, path: Path) -> None:
+    with np.load(path, allow_pickle=False) as data:
+        for key in data.files:
+            if key in ("pos", "full"):
+                continue
+            name, _, sub = key.partition("/")
+            target = getattr(buffer, name)
+            target = target[sub] if sub else target
+            target[: len(data[key])] = data[key]
+        buffer.pos, buffer.full = int(data["pos"]), bool(data["full"])
+
+
+def train_sb3(
+    env_id: str, hp: dict[str, Any], seed: int, out: Path, progress: Progress | None = None
+) -> tuple[Path, dict[str, int]]:
+    """Train PPO or DQN with a preset; keep the best model on the validation episodes.
+
+    Returns ``model.zip`` and the counts of environment steps (``train``, ``eval``).
+    """
     sb3 = _sb3()
     from stable_baselines3.common.callbacks import BaseCallback
     from stable_baselines3.common.env_util import make_vec_env
@@ -173,33 +228,42 @@ def train_sb3(env_id: str, hp: dict[str, Any], seed: int, out: Path, progress: b
         venv = VecNormalize(venv, norm_obs=norm_obs, norm_reward=norm_rew, gamma=hp["hyperparams"].get("gamma", 0.99))
     algo_cls = getattr(sb3, ALGOS[algo])
     _check_hyperparams(algo_cls, hp["hyperparams"])
+    checkpoint = out / "checkpoint"
+    state = json.loads((checkpoint / "state.json").read_text()) if (checkpoint / "state.json").exists() else None
     model = algo_cls(
         hp.get("policy", "MlpPolicy"),
         venv,
         policy_kwargs=hp.get("policy_kwargs"),
-        seed=seed,
+        seed=seed if state is None else seed + int(state["timesteps"]),
         device="cpu",
         verbose=0,
         **hp.get("hyperparams", {}),
     )
-    eval_env = gym.make(env_id, **hp.get("eval_env_kwargs", hp.get("env_kwargs", {})))
-    curve = LearningCurve(out, "timesteps")
+    if state is not None:
+        # the weights and optimizer states only (torch tensors, no pickle); the counters from state.json
+        model.set_parameters(str(checkpoint / "model.zip"), exact_match=True, device="cpu")
+        model.num_timesteps = int(state["timesteps"])
+        if hasattr(model, "_n_calls"):
+            model._n_calls = int(state["n_calls"])
+        if isinstance(venv, VecNormalize):
+            _load_normalization(venv, checkpoint / "normalize.npz")
+        buffer = getattr(model, "replay_buffer", None)
+        if buffer is not None and (checkpoint / "buffer.npz").exists():
+            _load_buffer(buffer, checkpoint / "buffer.npz")
+    eval_env = gym.make(env_id, **(hp.get("eval_env_kwargs") or hp.get("env_kwargs", {})))
+    curve = LearningCurve.load(out, "timesteps")
     model_path = out / "model.zip"
-    eval_freq, eval_episodes = int(hp.get("eval_freq", 10_000)), int(hp.get("eval_episodes", 5))
+    eval_freq, eval_episodes, eval_seed = int(hp["eval_freq"]), int(hp["eval_episodes"]), int(hp["eval_seed"])
     total = int(hp["total_timesteps"])
+    done_before = int(state["timesteps"]) if state else 0
+    curve.rows = [r for r in curve.rows if r["timesteps"] <= done_before]
 
     class Evaluate(BaseCallback):  # type: ignore[misc]
         def __init__(self) -> None:
             super().__init__()
-            self.best = -np.inf
-            self.next_eval = min(eval_freq, total)
-            self.bar: Any = None
-
-        def _on_training_start(self) -> None:
-            if progress:
-                from tqdm.auto import tqdm
-
-                self.bar = tqdm(total=total, desc=f"{algo} {env_id}", unit="step")
+            self.best = float(state["best"]) if state else -np.inf
+            self.next_eval = int(state["next_eval"]) if state else min(eval_freq, total)
+            self.eval_steps = int(state["eval_steps"]) if state else 0
 
         def _evaluate(self) -> None:
             stats = None
@@ -207,20 +271,37 @@ def train_sb3(env_id: str, hp: dict[str, Any], seed: int, out: Path, progress: b
                 _save_normalization(venv, out / "normalize.candidate.npz")
                 stats = dict(np.load(out / "normalize.candidate.npz", allow_pickle=False))
             policy = NormalizedPolicy(self.model, stats, eval_env.action_space)
-            rets = [
-                float(run_episode(eval_env, policy, seed + 10_000 + i, None)["rewards"].sum())
-                for i in range(eval_episodes)
-            ]
-            mean = curve.add(self.num_timesteps, rets)
+            rewards = [run_episode(eval_env, policy, eval_seed + i, None)["rewards"] for i in range(eval_episodes)]
+            self.eval_steps += sum(len(r) for r in rewards)
+            mean = curve.add(self.num_timesteps, [float(r.sum()) for r in rewards])
             if mean > self.best:
                 self.best = mean
                 self.model.save(model_path)
                 if stats is not None:
                     (out / "normalize.candidate.npz").replace(out / "normalize.npz")
+            self._checkpoint()
+
+        def _checkpoint(self) -> None:
+            checkpoint.mkdir(exist_ok=True)
+            self.model.save(checkpoint / "model.zip")
+            if isinstance(venv, VecNormalize):
+                _save_normalization(venv, checkpoint / "normalize.npz")
+            buffer = getattr(self.model, "replay_buffer", None)
+            if buffer is not None:
+                _save_buffer(buffer, checkpoint / "buffer.npz")
+            record = {
+                "timesteps": self.num_timesteps,
+                "n_calls": getattr(self.model, "_n_calls", 0),
+                "best": self.best,
+                "next_eval": self.next_eval,
+                "eval_steps": self.eval_steps,
+            }
+            (checkpoint / "state.tmp.json").write_text(json.dumps(record))
+            (checkpoint / "state.tmp.json").replace(checkpoint / "state.json")
 
         def _on_step(self) -> bool:
-            if self.bar is not None:
-                self.bar.update(self.training_env.num_envs)
+            if progress is not None:
+                progress(self.num_timesteps, total)
             if self.num_timesteps >= self.next_eval:
                 self.next_eval += eval_freq
                 self._evaluate()
@@ -229,12 +310,12 @@ def train_sb3(env_id: str, hp: dict[str, Any], seed: int, out: Path, progress: b
         def _on_training_end(self) -> None:
             if not curve.rows or curve.rows[-1]["timesteps"] < self.num_timesteps:
                 self._evaluate()
-            if self.bar is not None:
-                self.bar.close()
 
     out.mkdir(parents=True, exist_ok=True)
-    model.learn(total_timesteps=total, callback=Evaluate())
+    callback = Evaluate()
+    model.learn(total_timesteps=max(total - done_before, 0), callback=callback, reset_num_timesteps=state is None)
     (out / "normalize.candidate.npz").unlink(missing_ok=True)
     venv.close()
     eval_env.close()
-    return model_path
+    shutil.rmtree(checkpoint, ignore_errors=True)
+    return model_path, {"train": int(model.num_timesteps), "eval": callback.eval_steps}

@@ -1,30 +1,54 @@
-"""``gym4real train``: one entry point for every algorithm and registered preset."""
+"""``gym4real train``: one entry point for every algorithm and registered preset.
+
+A run folder holds ``settings.json`` (what is trained: env, algo, preset, seed and every setting), the
+model, the learning curve, a checkpoint while the run is unfinished, and ``run.json`` once it is finished
+(wall time, environment steps, versions). Training in a folder that holds an unfinished run of the same
+settings resumes it; a folder of other settings is refused.
+"""
 
 from __future__ import annotations
 
 import json
+import subprocess
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
+from importlib import metadata
 from pathlib import Path
+from typing import Any
 
+from gym4real.core.errors import ConfigError
 from gym4real.core.rl.presets import is_preset_file, load_preset
+
+Progress = Callable[[int, int], None]
+"""``progress(done, total)``: a trainer's progress in its unit (episodes or timesteps)."""
+
+_VERSIONS = ("gym4real-core", "gymnasium", "numpy", "stable-baselines3", "torch", "numba")
 
 
 @dataclass(frozen=True)
 class TrainingRun:
-    """Where a training run wrote its results."""
+    """Where a finished training run wrote its results, and what it cost."""
 
     env_id: str
     algo: str
     preset: str
+    seed: int
     model_path: Path
     curve_csv: Path
     wall_time_s: float
+    env_steps: int
+    eval_steps: int
 
     @property
     def policy(self) -> str:
         """The bench policy string of the trained model (``ppo:DIR/model.zip``)."""
         return f"{self.algo}:{self.model_path}"
+
+    @property
+    def steps_per_s(self) -> float:
+        """Environment steps (training and validation) per second of wall time."""
+        return (self.env_steps + self.eval_steps) / self.wall_time_s if self.wall_time_s > 0 else float("nan")
 
 
 def default_out(env_id: str, algo: str, preset: str, seed: int) -> Path:
@@ -33,8 +57,66 @@ def default_out(env_id: str, algo: str, preset: str, seed: int) -> Path:
     return Path("runs") / env_id.replace("/", "_") / f"{algo}-{name}-seed{seed}"
 
 
+def versions() -> dict[str, str]:
+    """Installed versions of the packages a training result depends on, and the commit of a git checkout."""
+    found = {}
+    for dist in _VERSIONS:
+        try:
+            found[dist] = metadata.version(dist)
+        except metadata.PackageNotFoundError:
+            continue
+    try:
+        git = subprocess.run(
+            ["git", "-C", str(Path(__file__).parent), "describe", "--always", "--dirty"],
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+    except OSError:  # no git
+        return found
+    if git.returncode == 0:
+        found["gym4real (git)"] = git.stdout.strip()
+    return found
+
+
+def _settings(env_id: str, algo: str, preset: str, seed: int, hp: dict[str, Any]) -> dict[str, Any]:
+    return json.loads(
+        json.dumps({"env_id": env_id, "algo": algo, "preset": preset, "seed": seed, "hyperparameters": hp})
+    )
+
+
+def finished_run(folder: Path, env_id: str, algo: str, preset: str, seed: int) -> TrainingRun | None:
+    """The finished run in ``folder`` if it trained exactly these settings, else None."""
+    record = folder / "run.json"
+    if not record.exists():
+        return None
+    data = json.loads(record.read_text())
+    expected = _settings(env_id, algo, preset, seed, load_preset(env_id, algo, preset))
+    if {k: data.get(k) for k in expected} != expected:
+        return None
+    model = folder / data["model"]
+    if not model.exists():
+        return None
+    return TrainingRun(
+        env_id,
+        algo,
+        preset,
+        seed,
+        model,
+        folder / "curve.csv",
+        data["wall_time_s"],
+        data["env_steps"],
+        data["eval_steps"],
+    )
+
+
 def train(
-    env_id: str, algo: str, preset: str = "paper", seed: int = 0, out: str | Path | None = None, progress: bool = False
+    env_id: str,
+    algo: str,
+    preset: str = "paper",
+    seed: int = 0,
+    out: str | Path | None = None,
+    progress: bool | Progress = False,
 ) -> TrainingRun:
     """Train an agent with a registered preset and write the model and the learning curve.
 
@@ -43,33 +125,96 @@ def train(
         algo: ``ppo``, ``dqn`` (Stable-Baselines3), ``qlearning`` or ``sarsa`` (tabular).
         preset: Training preset name (``paper``, ``smoke``) or the path of a YAML preset file.
         seed: Seed of the run.
-        out: Output folder (default ``runs/<env>/<algo>-<preset>-seed<S>``).
-        progress: Show a progress bar.
+        out: Output folder (default ``runs/<env>/<algo>-<preset>-seed<S>``); an unfinished run of the same
+            settings there is resumed from its last checkpoint.
+        progress: Show a progress bar (True), or a function called with (done, total).
+
+    Raises:
+        ConfigError: ``out`` holds a run of other settings.
     """
     hp = load_preset(env_id, algo, preset)
+    check_no_test_overlap(env_id, algo, preset)
     folder = Path(out) if out else default_out(env_id, algo, preset, seed)
     folder.mkdir(parents=True, exist_ok=True)
+    settings = _settings(env_id, algo, preset, seed, hp)
+    settings_path = folder / "settings.json"
+    if settings_path.exists() and json.loads(settings_path.read_text()) != settings:
+        raise ConfigError(
+            f"`{folder}` holds a run of other settings (see its settings.json); choose another output folder "
+            "or delete that one"
+        )
+    settings_path.write_text(json.dumps(settings, indent=1))
+    (folder / "run.json").unlink(missing_ok=True)
+    timing = folder / "timing.json"
+    previous = json.loads(timing.read_text())["wall_time_s"] if timing.exists() else 0.0
     start = time.perf_counter()
+    last_write = start
+    bar = None
+    if progress is True:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(desc=f"{algo} {env_id}", unit="episode" if algo in ("qlearning", "sarsa") else "step")
+
+    def report(done: int, total: int) -> None:
+        nonlocal last_write
+        now = time.perf_counter()
+        if now - last_write > 30:
+            timing.write_text(json.dumps({"wall_time_s": previous + now - start}))
+            last_write = now
+        if bar is not None:
+            bar.total = total
+            bar.update(done - bar.n)
+        elif callable(progress):
+            progress(done, total)
+
     if algo in ("qlearning", "sarsa"):
         from gym4real.core.rl.tabular import train_tabular
 
-        model = train_tabular(env_id, hp, seed, folder, progress)
+        model, steps = train_tabular(env_id, hp, seed, folder, report)
     else:
         from gym4real.core.rl.sb3 import train_sb3
 
-        model = train_sb3(env_id, hp, seed, folder, progress)
-    run = TrainingRun(env_id, algo, preset, model, folder / "curve.csv", time.perf_counter() - start)
-    (folder / "run.json").write_text(
-        json.dumps(
-            {
-                "env_id": env_id,
-                "algo": algo,
-                "preset": preset,
-                "seed": seed,
-                "hyperparameters": hp,
-                "wall_time_s": run.wall_time_s,
-            },
-            indent=1,
-        )
-    )
+        model, steps = train_sb3(env_id, hp, seed, folder, report)
+    if bar is not None:
+        bar.close()
+    wall = previous + time.perf_counter() - start
+    timing.unlink(missing_ok=True)
+    run = TrainingRun(env_id, algo, preset, seed, model, folder / "curve.csv", wall, steps["train"], steps["eval"])
+    record = {
+        **settings,
+        "model": model.name,
+        "wall_time_s": wall,
+        "env_steps": steps["train"],
+        "eval_steps": steps["eval"],
+        "steps_per_s": run.steps_per_s,
+        "versions": versions(),
+    }
+    (folder / "run.json").write_text(json.dumps(record, indent=1))
     return run
+
+
+def check_no_test_overlap(env_id: str, algo: str, preset: str) -> None:
+    """Refuse a preset whose validation seeds are seeds of the env's test protocol.
+
+    Model selection must never see the test split: the validation episodes ``eval_seed, eval_seed + 1,
+    ...`` may not share a seed with the registered test protocol (a seed fixes an episode's draws, whatever
+    the preset). Held-out data splits of the validation env are the domain's to declare and test.
+
+    Raises:
+        ConfigError: The two blocks of seeds overlap.
+    """
+    from gym4real.core.policies import load_object
+    from gym4real.core.registry import registry
+
+    spec = registry().benchmarks.get(env_id)
+    if spec is None:
+        return
+    hp = load_preset(env_id, algo, preset)
+    test_seeds = {ep.get("seed") for ep in load_object(spec.protocol)(dict(spec.env_kwargs))}
+    start, n = int(hp["eval_seed"]), int(hp["eval_episodes"])
+    overlap = sorted(s for s in test_seeds if s is not None and start <= s < start + n)
+    if overlap:
+        raise ConfigError(
+            f"training preset `{algo}/{preset}` of `{env_id}` selects its model on test episodes (seeds "
+            f"{overlap[0]}..{overlap[-1]}); set `eval_seed` to a block disjoint from the test protocol's seeds"
+        )

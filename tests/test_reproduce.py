@@ -1,0 +1,87 @@
+"""`gym4real reproduce`: the whole pipeline on a cheap environment, reuse of finished runs, unrunnable envs."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+import gym4real
+from gym4real.core.rl.reproduce import plan, presets, reproduce, seeds
+
+VERDICTS = {"holds", "does not hold", "inconclusive"}
+
+
+def _cli(*args: str) -> subprocess.CompletedProcess[str]:
+    # only the trading plugin: `--all` then means one environment
+    env = {**os.environ, "GYM4REAL_DISABLE_PLUGINS": "dam,elevator,microgrid,robofeeder,wds"}
+    return subprocess.run(
+        [sys.executable, "-m", "gym4real.core.cli", "reproduce", *args],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+
+
+@pytest.mark.slow
+def test_reproduce_all_quick_writes_the_page_and_reuses_finished_runs(tmp_path: Path) -> None:
+    pytest.importorskip("stable_baselines3")
+    out, page = tmp_path / "out", tmp_path / "docs"
+    args = ("--all", "--budget", "quick", "--seeds", "1", "--out", str(out), "--page", str(page), "--quiet")
+    first = _cli(*args)
+    assert first.returncode == 0, first.stderr
+    folder = out / "trading-v0" / "quick"
+    runs = sorted(folder.glob("runs/*/seed*/run.json"))
+    assert [p.parent.parent.name for p in runs] == ["dqn", "ppo"]
+    claims = json.loads((out / "claims.json").read_text())
+    assert len(claims) == 4 and {c["verdict"] for c in claims} <= VERDICTS
+    for claim in claims:
+        for comp in claim["comparisons"]:
+            low, high = comp["ci95"]
+            assert low <= comp["difference"] <= high
+    summary = pd.read_csv(folder / "summary.csv").set_index("policy")
+    assert summary.loc[["dqn", "ppo"], "seeds"].tolist() == [1, 1]
+    assert (summary.loc["dqn", "env_steps"] > 0) and summary["episodes"].nunique() == 1
+    text = (page / "index.md").read_text()
+    assert "`gym4real/trading-v0`, budget `quick`" in text
+    for link in ("cumulative_reward.png", "returns_boxplot.png", "learning_curves.png"):
+        assert f"figures/trading-v0-quick/{link}" in text
+        assert (page / "figures" / "trading-v0-quick" / link).read_bytes()[:4] == b"\x89PNG"
+    curves = pd.read_csv(folder / "learning_curves.csv")
+    assert set(curves["algo"]) == {"dqn", "ppo"} and (curves["low"] <= curves["high"]).all()
+
+    stamps = [p.stat().st_mtime_ns for p in runs]
+    second = _cli(*args)
+    assert second.returncode == 0, second.stderr
+    assert [p.stat().st_mtime_ns for p in runs] == stamps  # finished runs are reused, not trained again
+    assert json.loads((out / "claims.json").read_text()) == claims
+
+
+def test_an_env_that_cannot_run_is_reported_and_named_on_the_page(tmp_path: Path) -> None:
+    if "gym4real/microgrid-v0" not in gym4real.list_envs():
+        pytest.skip("microgrid not installed")
+    text = reproduce(["gym4real/microgrid-v0"], budget="paper", out=tmp_path)
+    error = (tmp_path / "microgrid-v0" / "paper" / "error.txt").read_text()
+    assert "not run" in text and "demand/train" in error
+    page = (tmp_path / "results.md").read_text()
+    assert "`gym4real/microgrid-v0`, budget `paper`: not run" in page
+    assert "gym4real reproduce gym4real/microgrid-v0 --budget paper" in page
+
+
+def test_the_plan_uses_the_papers_seeds_and_stand_in_presets(tmp_path: Path) -> None:
+    assert seeds("gym4real/dam-v0", "paper") == [123]
+    assert seeds("gym4real/elevator-v0", "paper", 3) == [42, 0, 1]
+    assert seeds("gym4real/trading-v0", "paper") == [32517, 84029, 10473, 67288, 91352, 47605]
+    assert seeds("gym4real/trading-v0", "quick") == [32517, 84029]
+    assert presets("gym4real/trading-v0", "paper") == {"dqn": "hourly", "ppo": "hourly"}
+    assert presets("gym4real/elevator-v0", "quick") == {"qlearning": "smoke", "sarsa": "smoke"}
+    items = plan("gym4real/elevator-v0", "paper", None, tmp_path)
+    assert [(i.algo, i.seed) for i in items] == [("qlearning", 42), ("sarsa", 42)]
+    assert items[0].folder == tmp_path / "elevator-v0" / "paper" / "runs" / "qlearning" / "seed42"
