@@ -73,6 +73,7 @@ def test_an_env_that_cannot_run_is_reported_and_named_on_the_page(tmp_path: Path
     page = (tmp_path / "results.md").read_text()
     assert "`gym4real/microgrid-v0`, budget `paper`: not run" in page
     assert "gym4real reproduce gym4real/microgrid-v0 --budget paper" in page
+    assert not (tmp_path / "figures" / "microgrid-v0-paper").exists()  # no empty figure folder for it
 
 
 def test_the_plan_uses_the_papers_seeds_and_stand_in_presets(tmp_path: Path) -> None:

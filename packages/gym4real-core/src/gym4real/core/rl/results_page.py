@@ -230,9 +230,9 @@ def write_page(out: Path, page: str | Path | None = None) -> Path:
     shutil.rmtree(out / "figures", ignore_errors=True)
     for folder in folders:
         target = out / "figures" / f"{folder.parent.name}-{folder.name}"
-        target.mkdir(parents=True, exist_ok=True)
         for name, _ in _FIGURES:
             if (folder / name).exists():
+                target.mkdir(parents=True, exist_ok=True)
                 shutil.copy(folder / name, target / name)
     written = out / "results.md"
     if page is not None:
@@ -240,6 +240,7 @@ def write_page(out: Path, page: str | Path | None = None) -> Path:
         page.mkdir(parents=True, exist_ok=True)
         (page / "index.md").write_text(text)
         shutil.rmtree(page / "figures", ignore_errors=True)
-        shutil.copytree(out / "figures", page / "figures")
+        if (out / "figures").exists():
+            shutil.copytree(out / "figures", page / "figures")
         written = page / "index.md"
     return written
