@@ -5,6 +5,7 @@ A preset is a YAML file beside a domain, registered as a ``TrainingSpec`` record
 
 from __future__ import annotations
 
+import math
 from importlib import resources
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -21,8 +22,20 @@ Positive = Annotated[int, Field(gt=0)]
 Fraction = Annotated[float, Field(ge=0, le=1)]
 
 
+def _non_finite(value: Any, where: str) -> str | None:
+    """The first NaN or infinity in a YAML value (nested lists and mappings), as ``where.key[i]``, or None."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return where
+    items = value.items() if isinstance(value, dict) else enumerate(value) if isinstance(value, list) else ()
+    for key, item in items:
+        found = _non_finite(item, f"{where}[{key}]" if isinstance(key, int) else f"{where}.{key}")
+        if found:
+            return found
+    return None
+
+
 class _Preset(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
     env_kwargs: dict[str, Any] = Field(default_factory=dict, description="Arguments of the training env.")
     eval_env_kwargs: dict[str, Any] | None = Field(
@@ -59,11 +72,19 @@ class SB3Preset(_Preset):
     hyperparams: dict[str, Any] = Field(default_factory=dict)
     eval_freq: Positive = Field(10_000, description="Timesteps between evaluations.")
 
+    @model_validator(mode="after")
+    def _finite_algorithm_settings(self) -> SB3Preset:
+        for name in ("hyperparams", "policy_kwargs"):
+            where = _non_finite(getattr(self, name), name)
+            if where:
+                raise ValueError(f"`{where}` is not finite (NaN or infinity); give a finite number")
+        return self
+
 
 class Epsilon(BaseModel):
     """Epsilon-greedy exploration: ``start``, multiplied by ``decay`` after each episode, floored at ``min``."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
     start: Fraction
     decay: Annotated[float, Field(gt=0, le=1)]
