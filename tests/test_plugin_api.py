@@ -12,6 +12,7 @@ from pathlib import Path
 
 import importlib_metadata
 import pytest
+from packaging.requirements import Requirement
 
 import gym4real
 from gym4real.core import PLUGIN_API_VERSION
@@ -40,7 +41,7 @@ def install(fake_plugins: FakePlugins, declaration: str) -> reg_mod.Registry:
     return fake_plugins(dist, modules={"g4r_fake_versioned": plugin(declaration)})
 
 
-@pytest.mark.parametrize("declared", ["0.2", "1.0", "1.1"])
+@pytest.mark.parametrize("declared", ["0.3", "1.0", "1.1"])
 def test_a_plugin_for_a_newer_api_is_isolated_and_names_the_core_upgrade(
     fake_plugins: FakePlugins, declared: str
 ) -> None:
@@ -65,7 +66,7 @@ def test_a_plugin_for_an_older_major_names_its_own_upgrade(
     assert err.phase == "compatibility" and "pip install -U versioned-envs" in str(err)
 
 
-@pytest.mark.parametrize("declared", ["0.0", PLUGIN_API_VERSION])
+@pytest.mark.parametrize("declared", ["0.0", "0.1", PLUGIN_API_VERSION])
 def test_a_plugin_for_an_older_or_equal_minor_is_registered(fake_plugins: FakePlugins, declared: str) -> None:
     reg = install(fake_plugins, f'plugin_api = "{declared}"')
     assert "gym4real/versioned-v0" in reg.envs
@@ -146,3 +147,36 @@ def test_version_lists_every_installed_gym4real_distribution(example_site: Path)
 
 def _pyproject_version(dist: str) -> str:
     return tomllib.loads((ROOT / "packages" / dist / "pyproject.toml").read_text())["project"]["version"]
+
+
+#: Record fields each minor of the plugin API added (docs/plugins.md, "Versions").
+ADDED_IN = {(0, 2): {"BenchmarkSpec": ("step_unit", "claims"), "TrainingSpec": ("budget",)}}
+
+
+def _api(text: str) -> tuple[int, int]:
+    major, minor = text.split(".")
+    return int(major), int(minor)
+
+
+@pytest.mark.parametrize("domain", ["dam", "elevator", "microgrid", "robofeeder", "trading", "wds"])
+def test_each_domain_declares_the_plugin_api_of_the_fields_it_uses(domain: str) -> None:
+    # a domain that sets a field of API 0.2 while declaring 0.1 installs beside core 0.1 and breaks there
+    module = pytest.importorskip(f"gym4real.{domain}._plugin")
+    declared = _api(module.plugin_api)
+    records = module.gym4real_register_benchmarks()
+    for api, fields in ADDED_IN.items():
+        for record in records:
+            for name in fields.get(type(record).__name__, ()):
+                default = type(record).__dataclass_fields__[name].default
+                if getattr(record, name) != default:
+                    assert declared >= api, f"{domain} sets {type(record).__name__}.{name} but declares {declared}"
+
+
+@pytest.mark.parametrize("domain", ["dam", "elevator", "microgrid", "robofeeder", "trading", "wds"])
+def test_each_domain_requires_a_core_that_serves_its_plugin_api(domain: str) -> None:
+    project = tomllib.loads((ROOT / "packages" / f"gym4real-{domain}" / "pyproject.toml").read_text())["project"]
+    [core] = [r for r in map(Requirement, project["dependencies"]) if r.name == "gym4real-core"]
+    module = pytest.importorskip(f"gym4real.{domain}._plugin")
+    oldest = min(_api(s.version) for s in core.specifier if s.operator == ">=")
+    assert oldest >= _api(module.plugin_api)  # core M.m serves plugin API M.m (docs/plugins.md table)
+    assert core.specifier.contains(importlib_metadata.version("gym4real-core"))  # the checkout core is in range

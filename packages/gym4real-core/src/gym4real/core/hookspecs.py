@@ -17,7 +17,7 @@ from gym4real.core.specs import BaselineSpec, BenchmarkSpec, DatasetSpec, EnvSpe
 #: Version of the plugin API (these hooks and the records of :mod:`gym4real.core.specs`). A minor bump only
 #: adds (a hook, a record field with a default, a flag); anything else is a major bump. A plugin written for
 #: ``M.m`` loads on a core whose API is ``M.n`` with ``n >= m``.
-PLUGIN_API_VERSION = "0.1"
+PLUGIN_API_VERSION = "0.2"
 
 PROJECT = "gym4real"
 hookspec = pluggy.HookspecMarker(PROJECT)

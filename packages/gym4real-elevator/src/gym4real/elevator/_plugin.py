@@ -6,7 +6,7 @@ from gym4real.core.hookspecs import hookimpl
 from gym4real.core.specs import BaselineSpec, BenchmarkSpec, Claim, DatasetSpec, EnvSpec, TrainingSpec
 
 #: The gym4real plugin API this module is written for (checked against gym4real-core's PLUGIN_API_VERSION).
-plugin_api = "0.1"
+plugin_api = "0.2"
 
 ENV_ID = "gym4real/elevator-v0"
 
