@@ -171,9 +171,7 @@ def docs(session: nox.Session) -> None:
     for env_id in str(ids).split():
         out = figures / env_id.replace("/", "_")
         session.run("gym4real", "bench", env_id, "--episodes", "3", "--out", str(out), "--quiet", env=env)
-    session.run(
-        "python", "docs/gen_pages.py", "--figures", str(figures), "--gifs", "--reproduction", "results", env=env
-    )
+    session.run("python", "docs/gen_pages.py", "--figures", str(figures), "--gifs", env=env)
     session.run("mkdocs", "build", "--strict", env={**env, "NO_MKDOCS_2_WARNING": "1"})
     shots = figures / "screenshots"
     session.run("python", "docs/check_site.py", "site", "--screenshots", str(shots), "--chromium", chromium, env=env)

@@ -3,14 +3,14 @@
 Each page opens, as Farama's environment pages do, with an episode of the env (an animated GIF, with
 ``--gifs``) beside a table of its spaces, reward terms and flags; then its description, presets,
 datasets, baselines, protocol, docstring and the JSON schema of its configuration; when ``--figures DIR``
-names a folder of ``gym4real bench`` results (``DIR/<env>/...png``), the benchmark figures; and when
-``--reproduction DIR`` holds ``gym4real reproduce`` results (``DIR/reproduce-<env>-paper/``), their figures.
+names a folder of ``gym4real bench`` results (``DIR/<env>/...png``), the benchmark figures; and the env's
+verdicts on the paper's claims from the committed results page (``docs/results/index.md``).
 
 The GIF shows the env's best rule-based baseline: the protocol's baseline (other than ``random``) with
 the best mean objective in ``--figures`` results, else its first. It is recorded here (``gym4real
 record``, no MP4) into the ignored ``docs/envs/gifs/``.
 
-    python docs/gen_pages.py [--figures results/docs] [--gifs] [--reproduction results]
+    python docs/gen_pages.py [--figures results/docs] [--gifs]
 """
 
 from __future__ import annotations
@@ -84,7 +84,7 @@ def _summary(env: gym.Env, env_id: str, flags: str) -> list[str]:
     return [head, "|---|---|", *body, ""]
 
 
-def page(env_id: str, figures: Path | None, gif_steps: int | None = None, reproduction: Path | None = None) -> str:
+def page(env_id: str, figures: Path | None, gif_steps: int | None = None) -> str:
     info = gym4real.env_info(env_id)
     reg = registry()
     env = gym.make(env_id)
@@ -136,8 +136,7 @@ def page(env_id: str, figures: Path | None, gif_steps: int | None = None, reprod
     lines += ["", "## Documentation", "", doc.replace("\n## ", "\n### "), ""]
     if figures is not None:
         lines += _figures("Benchmark figures", figures / env_id.replace("/", "_"))
-    if reproduction is not None:
-        lines += _reproduction(env_id, reproduction)
+    lines += _reproduction(env_id)
     lines += ["## Configuration schema", "", "```json", schema, "```", ""]
     return "\n".join(lines)
 
@@ -156,18 +155,23 @@ def _figures(title: str, folder: Path, intro: str = "") -> list[str]:
     return lines
 
 
-def _reproduction(env_id: str, results: Path) -> list[str]:
-    """The figures of ``gym4real reproduce`` (``results/reproduce-<env>-paper/``) and its verdict, when present."""
-    folder = results / f"reproduce-{env_id.replace('/', '_')}-paper"
-    results_page = next((p for p in ("results.md", "results/index.md") if (DOCS / p).is_file()), None)
-    intro = f"`gym4real reproduce {env_id}` (the trained agents against the baselines on the test protocol)."
-    if results_page:
-        intro += f" See also the [results of the reproduction](../{results_page})."
-    lines = _figures("Reproduction", folder, intro)
-    claim = folder / "claim.txt"
-    if lines and claim.is_file():
-        lines += ["```text", claim.read_text().rstrip(), "```", ""]
-    return lines
+def _reproduction(env_id: str) -> list[str]:
+    """The env's rows of the results page's verdict table (``docs/results/index.md``), when it has some."""
+    results = DOCS / "results" / "index.md"
+    text = results.read_text(encoding="utf-8").splitlines() if results.is_file() else []
+    rows = [line for line in text if line.startswith(f"| `{env_id.split('/')[-1]}` |")]
+    if not rows:
+        return []
+    return [
+        "## Reproduction",
+        "",
+        f"`gym4real reproduce {env_id}`: the paper's claims checked over training seeds; tables, learning curves "
+        "and figures in the [reproduced results](../results/index.md).",
+        "",
+        *text[text.index(next(line for line in text if line.startswith("| env | budget |"))) :][:2],
+        *rows,
+        "",
+    ]
 
 
 def main() -> None:
@@ -175,7 +179,6 @@ def main() -> None:
     parser.add_argument("--figures", type=Path, help="folder of gym4real bench results, one subfolder per env")
     parser.add_argument("--gifs", action="store_true", help="record an episode GIF of each env's best baseline")
     parser.add_argument("--gif-steps", type=int, default=360, help="steps of the recorded episode at most")
-    parser.add_argument("--reproduction", type=Path, help="folder of gym4real reproduce results (reproduce-*/)")
     args = parser.parse_args()
     out = DOCS / "envs"
     shutil.rmtree(out, ignore_errors=True)
@@ -183,7 +186,7 @@ def main() -> None:
     index = ["# Environments", "", "| id | description |", "|---|---|"]
     for env_id in gym4real.list_envs(multi_objective=False):
         name = env_id.replace("/", "_") + ".md"
-        (out / name).write_text(page(env_id, args.figures, args.gif_steps if args.gifs else None, args.reproduction))
+        (out / name).write_text(page(env_id, args.figures, args.gif_steps if args.gifs else None))
         index.append(f"| [`{env_id}`]({name}) | {registry().envs[env_id].description} |")
     (out / "index.md").write_text("\n".join(index) + "\n")
     print(f"wrote {len(index) - 4} environment pages to {out}")

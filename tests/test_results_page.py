@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from pathlib import Path
+from types import ModuleType
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -24,3 +26,14 @@ def test_every_figure_the_results_page_shows_is_committed() -> None:
     assert links
     for link in links:
         assert (page / link).read_bytes()[:4] == b"\x89PNG", link
+
+
+def test_each_env_page_shows_its_verdicts_from_the_results_page(load_script: Callable[[Path], ModuleType]) -> None:
+    gen_pages = load_script(ROOT / "docs" / "gen_pages.py")
+    page = _verdict_rows((ROOT / "docs" / "results" / "index.md").read_text(encoding="utf-8"))
+    for env_id in ("gym4real/dam-v0", "gym4real/wds-v0"):
+        section = gen_pages._reproduction(env_id)
+        assert section[0] == "## Reproduction" and "(../results/index.md)" in section[2]
+        name = env_id.split("/")[-1]
+        assert _verdict_rows("\n".join(section)) == [row for row in page if row.startswith(f"| `{name}` |")]
+    assert gen_pages._reproduction("gym4real/no-such-v0") == []
