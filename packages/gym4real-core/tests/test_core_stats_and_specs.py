@@ -111,3 +111,19 @@ def test_claims_are_checked_records() -> None:
         Claim("t", "ppo", "beats", ("random",))
     with pytest.raises(ValueError, match="no other policy"):
         Claim("t", "ppo", "above", ())
+
+
+def test_t_band_is_the_student_interval_of_the_seed_mean_and_none_where_one_seed_is_left() -> None:
+    import warnings
+
+    from scipy import stats as sps
+
+    rows = np.array([[1.0, 2.0, 3.0], [2.0, 4.0, np.nan], [4.0, 3.0, np.nan]])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # curves of unequal length warned (SmallSampleWarning) on every run
+        mean, low, high = stats.t_band(rows)
+    half = sps.t.ppf(0.975, 2) * sps.sem(rows[:, :2], axis=0)
+    np.testing.assert_allclose(mean, [7 / 3, 3.0, 3.0])
+    np.testing.assert_allclose(high[:2] - mean[:2], half)
+    np.testing.assert_allclose(mean[:2] - low[:2], half)
+    assert low[2] == high[2] == 3.0

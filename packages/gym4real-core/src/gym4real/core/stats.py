@@ -56,8 +56,10 @@ def t_band(rows: np.ndarray, level: float = 0.95) -> tuple[np.ndarray, np.ndarra
     """Mean over rows (seeds) and the Student-t confidence band of the mean, column by column (NaN: missing)."""
     mean = np.nanmean(rows, axis=0)
     count = np.sum(~np.isnan(rows), axis=0)
-    sem = sps.sem(rows, axis=0, nan_policy="omit") if rows.shape[0] > 1 else np.zeros(rows.shape[1])
-    half = np.where(count > 1, sps.t.ppf(0.5 + level / 2, np.maximum(count - 1, 1)) * np.asarray(sem), 0.0)
+    sem = np.zeros(rows.shape[1])
+    many = count > 1  # a column with one seed (a longer curve's tail) has no band
+    sem[many] = np.nanstd(rows[:, many], axis=0, ddof=1) / np.sqrt(count[many])
+    half = np.where(many, sps.t.ppf(0.5 + level / 2, np.maximum(count - 1, 1)) * sem, 0.0)
     return mean, mean - half, mean + half
 
 
