@@ -7,7 +7,7 @@ import importlib.util
 import os
 import sys
 import textwrap
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from types import ModuleType
 
@@ -33,6 +33,33 @@ def load_script() -> Callable[[Path], ModuleType]:
         return module
 
     return load
+
+
+CARTPOLE = "gymnasium.envs.classic_control.cartpole:CartPoleEnv"
+
+
+def _plugin_source(
+    env_ids: Sequence[str], *, declaration: str | None = None, entry_point: str = CARTPOLE, body: str = ""
+) -> str:
+    from gym4real.core import PLUGIN_API_VERSION
+
+    specs = ", ".join(f'EnvSpec(id="{i}", entry_point="{entry_point}", description="fake")' for i in env_ids)
+    return (
+        "from gym4real.core.hookspecs import hookimpl\n"
+        "from gym4real.core.specs import EnvSpec\n"
+        f"{f'plugin_api = {PLUGIN_API_VERSION!r}' if declaration is None else declaration}\n"
+        "@hookimpl\n"
+        "def gym4real_register_envs():\n"
+        f"    return [{specs}]\n" + body
+    )
+
+
+@pytest.fixture(scope="session")
+def plugin_source() -> Callable[..., str]:
+    """``plugin_source(env_ids, declaration=, entry_point=, body=)``: source of a plugin module for
+    :func:`fake_plugins`: ``declaration`` (default: the current ``plugin_api``; ``""`` declares none), a
+    hook registering ``env_ids`` (each made by ``entry_point``, CartPole by default), then ``body``."""
+    return _plugin_source
 
 
 class FakeDistribution(importlib_metadata.Distribution):

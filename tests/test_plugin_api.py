@@ -23,29 +23,24 @@ ROOT = Path(__file__).resolve().parents[1]
 FakePlugins = Callable[..., reg_mod.Registry]
 
 
-def plugin(declaration: str) -> str:
-    """Source of a plugin module that registers ``gym4real/versioned-v0`` after ``declaration``."""
-    return (
-        "from gym4real.core.hookspecs import hookimpl\n"
-        "from gym4real.core.specs import EnvSpec\n"
-        f"{declaration}\n"
-        "@hookimpl\n"
-        "def gym4real_register_envs():\n"
-        '    return [EnvSpec(id="gym4real/versioned-v0", entry_point="gymnasium.envs.classic_control.cartpole:'
-        'CartPoleEnv", description="fake")]\n'
-    )
+@pytest.fixture
+def install(fake_plugins: FakePlugins, plugin_source: Callable[..., str]) -> Callable[[str], reg_mod.Registry]:
+    """``install(declaration)``: a fake plugin registering ``gym4real/versioned-v0`` after ``declaration``."""
 
+    def run(declaration: str) -> reg_mod.Registry:
+        source = plugin_source(["gym4real/versioned-v0"], declaration=declaration)
+        return fake_plugins(
+            ("versioned-envs", "2.0", {"versioned": "g4r_fake_versioned"}), modules={"g4r_fake_versioned": source}
+        )
 
-def install(fake_plugins: FakePlugins, declaration: str) -> reg_mod.Registry:
-    dist = ("versioned-envs", "2.0", {"versioned": "g4r_fake_versioned"})
-    return fake_plugins(dist, modules={"g4r_fake_versioned": plugin(declaration)})
+    return run
 
 
 @pytest.mark.parametrize("declared", ["0.3", "1.0", "1.1"])
 def test_a_plugin_for_a_newer_api_is_isolated_and_names_the_core_upgrade(
-    fake_plugins: FakePlugins, declared: str
+    install: Callable[[str], reg_mod.Registry], declared: str
 ) -> None:
-    reg = install(fake_plugins, f'plugin_api = "{declared}"')
+    reg = install(f'plugin_api = "{declared}"')
     assert "gym4real/versioned-v0" not in reg.envs
     assert "gym4real/elevator-v0" in reg.envs  # every other plugin still loads
     [err] = gym4real.plugin_errors()
@@ -57,35 +52,39 @@ def test_a_plugin_for_a_newer_api_is_isolated_and_names_the_core_upgrade(
 
 
 def test_a_plugin_for_an_older_major_names_its_own_upgrade(
-    fake_plugins: FakePlugins, monkeypatch: pytest.MonkeyPatch
+    install: Callable[[str], reg_mod.Registry], monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setattr(reg_mod, "PLUGIN_API_VERSION", "1.0")
-    reg = install(fake_plugins, 'plugin_api = "0.1"')
+    reg = install('plugin_api = "0.1"')
     assert "gym4real/versioned-v0" not in reg.envs
     err = next(e for e in gym4real.plugin_errors() if e.plugin == "versioned")
     assert err.phase == "compatibility" and "pip install -U versioned-envs" in str(err)
 
 
 @pytest.mark.parametrize("declared", ["0.0", "0.1", PLUGIN_API_VERSION])
-def test_a_plugin_for_an_older_or_equal_minor_is_registered(fake_plugins: FakePlugins, declared: str) -> None:
-    reg = install(fake_plugins, f'plugin_api = "{declared}"')
+def test_a_plugin_for_an_older_or_equal_minor_is_registered(
+    install: Callable[[str], reg_mod.Registry], declared: str
+) -> None:
+    reg = install(f'plugin_api = "{declared}"')
     assert "gym4real/versioned-v0" in reg.envs
     assert gym4real.plugin_errors() == []
 
 
 @pytest.mark.parametrize("declaration", ["plugin_api = 0.1", 'plugin_api = "latest"', 'plugin_api = "0.1.0"'])
-def test_a_malformed_declaration_is_a_compatibility_error(fake_plugins: FakePlugins, declaration: str) -> None:
-    reg = install(fake_plugins, declaration)
+def test_a_malformed_declaration_is_a_compatibility_error(
+    install: Callable[[str], reg_mod.Registry], declaration: str
+) -> None:
+    reg = install(declaration)
     assert "gym4real/versioned-v0" not in reg.envs
     [err] = gym4real.plugin_errors()
     assert err.phase == "compatibility" and "MAJOR.MINOR" in err.error and "versioned-envs" in err.fix
 
 
 def test_a_plugin_that_declares_nothing_is_registered_with_a_warning(
-    fake_plugins: FakePlugins, caplog: pytest.LogCaptureFixture
+    install: Callable[[str], reg_mod.Registry], caplog: pytest.LogCaptureFixture
 ) -> None:
     with caplog.at_level(logging.WARNING, logger="gym4real.plugins"):
-        reg = install(fake_plugins, "")
+        reg = install("")
     assert "gym4real/versioned-v0" in reg.envs
     assert gym4real.plugin_errors() == []
     [warning] = [r.getMessage() for r in caplog.records if "versioned" in r.getMessage()]

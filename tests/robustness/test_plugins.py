@@ -5,7 +5,7 @@ Each case installs fake distributions beside the real ones (the ``fake_plugins``
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 
 import pytest
 
@@ -14,28 +14,14 @@ from gym4real.core.errors import EnvUnavailableError, PluginLoadError
 from gym4real.core.registry import Registry, registry
 
 FakePlugins = Callable[..., Registry]
-CARTPOLE = "gymnasium.envs.classic_control.cartpole:CartPoleEnv"
-
-
-def plugin(env_ids: Sequence[str], entry_point: str = CARTPOLE, body: str = "") -> str:
-    """Source of a plugin module registering ``env_ids`` (each made by ``entry_point``), then ``body``."""
-    specs = ", ".join(f'EnvSpec(id="{i}", entry_point="{entry_point}", description="fake")' for i in env_ids)
-    return (
-        "from gym4real.core.hookspecs import hookimpl\n"
-        "from gym4real.core.specs import EnvSpec\n"
-        'plugin_api = "0.1"\n'
-        "@hookimpl\n"
-        "def gym4real_register_envs():\n"
-        f"    return [{specs}]\n" + body
-    )
 
 
 @pytest.mark.parametrize("first", [True, False], ids=["fake-listed-first", "fake-listed-last"])
 def test_a_second_distribution_named_like_a_domain_is_a_reported_conflict(
-    fake_plugins: FakePlugins, first: bool
+    fake_plugins: FakePlugins, plugin_source: Callable[..., str], first: bool
 ) -> None:
     evil = ("evil-wds", "6.6", {"wds": "g4r_fake_wds"})
-    reg = fake_plugins(evil, modules={"g4r_fake_wds": plugin(["gym4real/wds-v0"])}, first=first)
+    reg = fake_plugins(evil, modules={"g4r_fake_wds": plugin_source(["gym4real/wds-v0"])}, first=first)
     assert "gym4real/wds-v0" not in reg.envs  # neither the real plugin nor the impostor wins
     assert "gym4real/elevator-v0" in reg.envs
     errors = [e for e in gym4real.plugin_errors() if e.plugin == "wds"]
@@ -49,9 +35,11 @@ def test_a_second_distribution_named_like_a_domain_is_a_reported_conflict(
         registry(strict=True)
 
 
-def test_a_plugin_that_sorts_first_cannot_take_over_another_domains_id(fake_plugins: FakePlugins) -> None:
+def test_a_plugin_that_sorts_first_cannot_take_over_another_domains_id(
+    fake_plugins: FakePlugins, plugin_source: Callable[..., str]
+) -> None:
     squatter = ("aaa-envs", "1.0", {"aaa": "g4r_fake_aaa"})
-    reg = fake_plugins(squatter, modules={"g4r_fake_aaa": plugin(["gym4real/dam-v0"])})
+    reg = fake_plugins(squatter, modules={"g4r_fake_aaa": plugin_source(["gym4real/dam-v0"])})
     assert "gym4real/dam-v0" not in reg.envs
     assert "gym4real/elevator-v0" in reg.envs
     errors = {e.plugin: e for e in gym4real.plugin_errors()}
@@ -82,10 +70,12 @@ def test_an_exit_at_plugin_import_is_reported_and_does_not_escape(fake_plugins: 
     assert (err.plugin, err.distribution, err.phase) == ("quitter", "quitter", "import")
 
 
-def test_an_exit_in_a_registration_hook_is_reported_and_does_not_escape(fake_plugins: FakePlugins) -> None:
+def test_an_exit_in_a_registration_hook_is_reported_and_does_not_escape(
+    fake_plugins: FakePlugins, plugin_source: Callable[..., str]
+) -> None:
     body = "@hookimpl\ndef gym4real_register_datasets():\n    import sys; sys.exit(4)\n"
     dist = ("quitter", "1.0", {"quitter": "g4r_fake_exit_hook"})
-    reg = fake_plugins(dist, modules={"g4r_fake_exit_hook": plugin(["gym4real/quitter-v0"], body=body)})
+    reg = fake_plugins(dist, modules={"g4r_fake_exit_hook": plugin_source(["gym4real/quitter-v0"], body=body)})
     assert "gym4real/quitter-v0" not in reg.envs
     [err] = gym4real.plugin_errors()
     assert err.phase == "gym4real_register_datasets" and "SystemExit" in err.error
@@ -101,10 +91,13 @@ def test_a_keyboard_interrupt_at_plugin_import_still_interrupts(fake_plugins: Fa
     "entry_point", ["g4r_no_such_module.env:GhostEnv", "g4r_fake_ghost_pkg.env:GhostEnv"], ids=["package", "module"]
 )
 def test_a_missing_env_module_is_reported_at_discovery_not_raised_at_make(
-    fake_plugins: FakePlugins, entry_point: str
+    fake_plugins: FakePlugins, plugin_source: Callable[..., str], entry_point: str
 ) -> None:
     dist = ("ghost-envs", "1.0", {"ghost": "g4r_fake_ghost"})
-    modules = {"g4r_fake_ghost": plugin(["gym4real/ghost-v0"], entry_point), "g4r_fake_ghost_pkg.__init__": ""}
+    modules = {
+        "g4r_fake_ghost": plugin_source(["gym4real/ghost-v0"], entry_point=entry_point),
+        "g4r_fake_ghost_pkg.__init__": "",
+    }
     reg = fake_plugins(dist, modules=modules)
     assert "gym4real/ghost-v0" not in reg.envs
     [err] = gym4real.plugin_errors()
@@ -114,9 +107,11 @@ def test_a_missing_env_module_is_reported_at_discovery_not_raised_at_make(
         gym4real.make("gym4real/ghost-v0")
 
 
-def test_a_plugin_with_a_good_and_a_duplicate_id_registers_neither(fake_plugins: FakePlugins) -> None:
+def test_a_plugin_with_a_good_and_a_duplicate_id_registers_neither(
+    fake_plugins: FakePlugins, plugin_source: Callable[..., str]
+) -> None:
     dist = ("half-envs", "1.0", {"half": "g4r_fake_half"})
-    reg = fake_plugins(dist, modules={"g4r_fake_half": plugin(["gym4real/half-v0", "gym4real/elevator-v0"])})
+    reg = fake_plugins(dist, modules={"g4r_fake_half": plugin_source(["gym4real/half-v0", "gym4real/elevator-v0"])})
     assert "gym4real/half-v0" not in reg.envs and "gym4real/elevator-v0" not in reg.envs
     assert "half" not in reg.owners.values()
     errors = {e.plugin: e for e in gym4real.plugin_errors()}
@@ -124,18 +119,22 @@ def test_a_plugin_with_a_good_and_a_duplicate_id_registers_neither(fake_plugins:
     assert all(e.phase == "conflict" and "half-envs" in str(e) for e in errors.values())
 
 
-def test_an_id_registered_twice_by_one_plugin_registers_nothing(fake_plugins: FakePlugins) -> None:
+def test_an_id_registered_twice_by_one_plugin_registers_nothing(
+    fake_plugins: FakePlugins, plugin_source: Callable[..., str]
+) -> None:
     dist = ("twice-envs", "1.0", {"twice": "g4r_fake_twice"})
-    reg = fake_plugins(dist, modules={"g4r_fake_twice": plugin(["gym4real/twice-v0", "gym4real/twice-v0"])})
+    reg = fake_plugins(dist, modules={"g4r_fake_twice": plugin_source(["gym4real/twice-v0", "gym4real/twice-v0"])})
     assert "gym4real/twice-v0" not in reg.envs
     [err] = gym4real.plugin_errors()
     assert err.plugin == "twice" and "`gym4real/twice-v0`" in err.error
 
 
-def test_a_plugin_whose_later_hook_fails_keeps_none_of_its_records(fake_plugins: FakePlugins) -> None:
+def test_a_plugin_whose_later_hook_fails_keeps_none_of_its_records(
+    fake_plugins: FakePlugins, plugin_source: Callable[..., str]
+) -> None:
     body = "@hookimpl\ndef gym4real_register_baselines():\n    raise RuntimeError('no baselines today')\n"
     dist = ("partial-envs", "1.0", {"partial": "g4r_fake_partial"})
-    reg = fake_plugins(dist, modules={"g4r_fake_partial": plugin(["gym4real/partial-v0"], body=body)})
+    reg = fake_plugins(dist, modules={"g4r_fake_partial": plugin_source(["gym4real/partial-v0"], body=body)})
     assert "gym4real/partial-v0" not in reg.envs
     assert "partial" not in reg.owners.values()
     [err] = gym4real.plugin_errors()
