@@ -8,11 +8,13 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 
 import gym4real
-from gym4real.core.rl.reproduce import plan, presets, reproduce, seeds
+from gym4real.core.benchmark import BenchmarkResult
+from gym4real.core.rl.reproduce import plan, pooled, presets, reproduce, seeds
 
 VERDICTS = {"holds", "does not hold", "inconclusive"}
 
@@ -86,3 +88,21 @@ def test_the_plan_uses_the_papers_seeds_and_stand_in_presets(tmp_path: Path) -> 
     items = plan("gym4real/elevator-v0", "paper", None, tmp_path)
     assert [(i.algo, i.seed) for i in items] == [("qlearning", 42), ("sarsa", 42)]
     assert items[0].folder == tmp_path / "elevator-v0" / "paper" / "runs" / "qlearning" / "seed42"
+
+
+def test_pooling_an_algorithms_seeds_keeps_the_results_step_unit_and_objective() -> None:
+    result = BenchmarkResult(
+        "gym4real/dam-v0",
+        [{"seed": 0}, {"seed": 1}],
+        returns={"max": [1.0, 2.0], "ppo:a": [3.0, 4.0], "ppo:b": [5.0, 6.0]},
+        components={p: {"deficit": [-1.0, -2.0]} for p in ("max", "ppo:a", "ppo:b")},
+        rewards={p: [np.zeros(2), np.ones(2)] for p in ("max", "ppo:a", "ppo:b")},
+        final_info={p: {} for p in ("max", "ppo:a", "ppo:b")},
+        objective=("deficit",),
+        step_unit="day",  # the figures' x label; a pooled copy without it labelled them "step"
+    )
+    out = pooled(result, {"max": ["max"], "ppo": ["ppo:a", "ppo:b"]})
+    assert (out.step_unit, out.objective) == ("day", ("deficit",))
+    assert out.returns == {"max": [1.0, 2.0], "ppo": [3.0, 4.0, 5.0, 6.0]}
+    assert out.components["ppo"] == {"deficit": [-1.0, -2.0, -1.0, -2.0]} and len(out.rewards["ppo"]) == 4
+    assert len(out.episodes) == 4

@@ -20,6 +20,7 @@ Layout of the output folder ``OUT``::
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import time
 from collections.abc import Sequence
@@ -31,6 +32,7 @@ import numpy as np
 import pandas as pd
 
 from gym4real.core import stats
+from gym4real.core.benchmark import BenchmarkResult, benchmark, protocol
 from gym4real.core.errors import ConfigError, Gym4RealError
 from gym4real.core.registry import registry
 from gym4real.core.rl.presets import load_preset
@@ -104,10 +106,9 @@ def plan(env_id: str, budget: str, n_seeds: int | None, out: Path) -> list[Item]
     if not algos:
         raise ConfigError(f"`{env_id}` registers no training preset for the `{budget}` budget")
     base = out / slug(env_id) / budget / "runs"
+    run_seeds = seeds(env_id, budget, n_seeds)
     return [
-        Item(env_id, algo, preset, s, base / algo / f"seed{s}")
-        for algo, preset in algos.items()
-        for s in seeds(env_id, budget, n_seeds)
+        Item(env_id, algo, preset, s, base / algo / f"seed{s}") for algo, preset in algos.items() for s in run_seeds
     ]
 
 
@@ -152,40 +153,31 @@ def _scores(result: Any, name: str) -> np.ndarray:
 class EnvReport:
     """What :func:`reproduce_env` found for one environment and budget."""
 
-    env_id: str
-    budget: str
-    runs: list[TrainingRun]
-    scores: dict[str, np.ndarray]
     table: pd.DataFrame
     claims: list[dict[str, Any]]
-    wall_time_s: float
-    folder: Path
 
 
-def _pooled(env_id: str, baseline: Any, tested: dict[str, list[Any]]) -> Any:
-    """One BenchmarkResult with the baselines and, per algorithm, the test episodes of all its seeds."""
-    from gym4real.core.benchmark import BenchmarkResult
+def pooled(result: BenchmarkResult, groups: dict[str, list[str]]) -> BenchmarkResult:
+    """``result`` with each group of policies (an algorithm's runs, one per seed) as one policy.
 
-    n_runs = max([1, *(len(v) for v in tested.values())])
-    pooled = BenchmarkResult(env_id, list(baseline.episodes) * n_runs, objective=baseline.objective)
-    for name in baseline.returns:
-        pooled.returns[name] = baseline.returns[name]
-        pooled.rewards[name] = baseline.rewards[name]
-        pooled.components[name] = baseline.components[name]
-        pooled.final_info[name] = baseline.final_info[name]
-    for algo, results in tested.items():
-        keys = [next(iter(r.returns)) for r in results]
-        pooled.returns[algo] = [x for r, k in zip(results, keys, strict=True) for x in r.returns[k]]
-        pooled.rewards[algo] = [x for r, k in zip(results, keys, strict=True) for x in r.rewards[k]]
-        comps = sorted({c for r, k in zip(results, keys, strict=True) for c in r.components[k]})
-        pooled.components[algo] = {
-            c: [x for r, k in zip(results, keys, strict=True) for x in r.components[k].get(c, [])] for c in comps
-        }
-        pooled.final_info[algo] = {
-            f: [x for r, k in zip(results, keys, strict=True) for x in r.final_info[k].get(f, [])]
-            for f in results[0].final_info[keys[0]]
-        }
-    return pooled
+    The group's policy holds all their test episodes in turn; everything else (objective, step unit, ...) is
+    ``result``'s.
+    """
+
+    def joined(table: dict[str, Any], names: list[str]) -> Any:
+        first = table[names[0]]
+        if isinstance(first, dict):
+            return {key: [x for n in names for x in table[n][key]] for key in first}
+        return [x for n in names for x in table[n]]
+
+    return dataclasses.replace(
+        result,
+        episodes=list(result.episodes) * max(len(names) for names in groups.values()),
+        **{
+            name: {group: joined(getattr(result, name), names) for group, names in groups.items()}
+            for name in ("returns", "rewards", "components", "final_info")
+        },
+    )
 
 
 def check_claim(claim: Claim, scores: dict[str, np.ndarray]) -> dict[str, Any]:
@@ -290,19 +282,16 @@ def _curves(runs: list[TrainingRun], folder: Path) -> None:
 def reproduce_env(
     env_id: str,
     budget: str,
-    n_seeds: int | None,
+    items: list[Item],
     out: Path,
     progress: PlanProgress | None = None,
 ) -> EnvReport:
-    """Train (or reuse), test and check the claims of one environment; write its folder."""
+    """Train (or reuse) the runs of ``items`` (the env's :func:`plan`), test them, check the claims, write."""
     from gym4real.core import plots
-    from gym4real.core.benchmark import benchmark, protocol
 
-    items = plan(env_id, budget, n_seeds, out)
     folder = out / slug(env_id) / budget
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "error.txt").unlink(missing_ok=True)
-    start = time.perf_counter()
     runs: list[TrainingRun] = []
     for item in items:
         run = finished_run(item.folder, item.env_id, item.algo, item.preset, item.seed)
@@ -319,26 +308,23 @@ def reproduce_env(
     spec = protocol(env_id)
     baselines = list(spec.policies)
     test_start = time.perf_counter()
-    tested: dict[str, list[Any]] = {}
-    base = benchmark(env_id, baselines, episodes="test")
+    result = benchmark(env_id, [*baselines, *(run.policy for run in runs)], episodes="test")
+    groups = {name: [name] for name in baselines}
     for run in runs:
-        tested.setdefault(run.algo, []).append(benchmark(env_id, [run.policy], episodes="test"))
-    scores = {name: _scores(base, name)[None, :] for name in baselines}
-    for algo, results in tested.items():
-        scores[algo] = np.stack([_scores(r, next(iter(r.returns))) for r in results])
+        groups.setdefault(run.algo, []).append(run.policy)
+    scores = {group: np.stack([_scores(result, name) for name in names]) for group, names in groups.items()}
     test_wall = time.perf_counter() - test_start
-    pooled = _pooled(env_id, base, tested)
-    table = _table(scores, pooled.returns, runs)
+    tested = pooled(result, groups)
+    table = _table(scores, tested.returns, runs)
     claims = [{"env_id": env_id, **check_claim(c, scores)} for c in spec.claims]
-    wall = time.perf_counter() - start
-    plots.save_figures(pooled, folder)
+    plots.save_figures(tested, folder)
     _curves(runs, folder)
     table.to_csv(folder / "summary.csv")
     (folder / "claims.json").write_text(json.dumps(claims, indent=1))
     report = {
         "env_id": env_id,
         "budget": budget,
-        "command": f"gym4real reproduce {env_id} --budget {budget} --seeds {len(items) // len(tested)} --out {out}",
+        "command": f"gym4real reproduce {env_id} --budget {budget} --seeds {len({i.seed for i in items})} --out {out}",
         "objective": list(spec.objective) or ["return"],
         "protocol": spec.description,
         "seeds": sorted({r.seed for r in runs}),
@@ -361,7 +347,7 @@ def reproduce_env(
     (folder / "report.json").write_text(json.dumps(report, indent=1))
     if progress is not None:
         progress.close_item()
-    return EnvReport(env_id, budget, runs, scores, table, claims, wall, folder)
+    return EnvReport(table, claims)
 
 
 def reproduce(
@@ -386,20 +372,20 @@ def reproduce(
         page: Also write the results page and its figures into this folder (a docs folder).
     """
     out = Path(out)
-    plans: dict[str, int] = {}
+    plans: dict[str, list[Item]] = {}
     errors: dict[str, str] = {}
     for env_id in env_ids:
         try:
-            plans[env_id] = len(plan(env_id, budget, n_seeds, out))
+            plans[env_id] = plan(env_id, budget, n_seeds, out)
         except Gym4RealError as exc:
             errors[env_id] = " ".join(str(exc).split())
-    bar = PlanProgress(sum(plans.values()) + len(plans), progress)
+    bar = PlanProgress(sum(len(items) for items in plans.values()) + len(plans), progress)
     lines = []
     items_so_far = 0
-    for env_id in plans:
-        items_so_far += plans[env_id] + 1
+    for env_id, items in plans.items():
+        items_so_far += len(items) + 1
         try:
-            report = reproduce_env(env_id, budget, n_seeds, out, bar)
+            report = reproduce_env(env_id, budget, items, out, bar)
         except Exception as exc:  # one env's failure (missing data, a bug) must not stop the others
             name = "" if isinstance(exc, Gym4RealError) else f"{type(exc).__name__}: "
             errors[env_id] = name + " ".join(str(exc).split())
