@@ -164,19 +164,23 @@ def pooled(result: BenchmarkResult, groups: dict[str, list[str]]) -> BenchmarkRe
     ``result``'s.
     """
 
-    def joined(table: dict[str, Any], names: list[str]) -> Any:
-        first = table[names[0]]
-        if isinstance(first, dict):
-            return {key: [x for n in names for x in table[n][key]] for key in first}
-        return [x for n in names for x in table[n]]
+    def joined(table: dict[str, Any]) -> dict[str, Any]:
+        out = {}
+        for group, names in groups.items():
+            first = table[names[0]]
+            if isinstance(first, dict):  # components, final_info: one list per key
+                out[group] = {key: [x for n in names for x in table[n][key]] for key in first}
+            else:
+                out[group] = [x for n in names for x in table[n]]
+        return out
 
     return dataclasses.replace(
         result,
         episodes=list(result.episodes) * max(len(names) for names in groups.values()),
-        **{
-            name: {group: joined(getattr(result, name), names) for group, names in groups.items()}
-            for name in ("returns", "rewards", "components", "final_info")
-        },
+        returns=joined(result.returns),
+        rewards=joined(result.rewards),
+        components=joined(result.components),
+        final_info=joined(result.final_info),
     )
 
 
