@@ -165,7 +165,7 @@ def pooled(result: BenchmarkResult, groups: dict[str, list[str]]) -> BenchmarkRe
     """
 
     def joined(table: dict[str, Any]) -> dict[str, Any]:
-        out = {}
+        out: dict[str, Any] = {}
         for group, names in groups.items():
             first = table[names[0]]
             if isinstance(first, dict):  # components, final_info: one list per key
