@@ -19,6 +19,7 @@ wrong with it and what was expected:
 
 from __future__ import annotations
 
+import math
 from typing import Any, Literal, TypeVar
 
 import numpy as np
@@ -131,7 +132,7 @@ def _checked_box(
     arr = _as_array(action, box, expected)
     if arr.dtype.kind not in _REAL_KINDS:
         raise _refuse(action, box, _kind_problem(arr), expected)
-    if arr.shape != shape and (arr.size != int(np.prod(shape)) or _squeezed(arr.shape) != _squeezed(shape)):
+    if arr.shape != shape and (arr.size != math.prod(shape) or _squeezed(arr.shape) != _squeezed(shape)):
         raise _refuse(action, box, f"shape {arr.shape}, not {shape}", expected)
     a = np.array(arr, dtype=np.float64).reshape(shape)  # a copy: the caller's array is never changed
     low, high = box.low, box.high

@@ -86,7 +86,7 @@ def _cmd_record(args: argparse.Namespace) -> None:
 
 
 def _add_record(sub: Any) -> None:
-    rec = sub.add_parser("record", help="write videos (MP4 and animated GIF) of a policy's episodes")
+    rec = _command(sub, "record", "write videos (MP4 and animated GIF) of a policy's episodes", _cmd_record)
     rec.add_argument("env_id", help=ENV_ID_HELP)
     rec.add_argument("--policy", required=True, help="a baseline name or kind:path model (ppo:runs/x/model.zip)")
     rec.add_argument("--episodes", type=int, default=1, help="episodes, seeded seed, seed + 1, ...")
@@ -98,7 +98,6 @@ def _add_record(sub: Any) -> None:
     rec.add_argument("--gif-frames", type=int, default=100, help="most frames in the GIF (evenly spaced steps)")
     rec.add_argument("--no-mp4", action="store_true", help="write the GIF only (no MoviePy needed)")
     rec.add_argument("--quiet", action="store_true", help="no progress bar")
-    rec.set_defaults(run=_cmd_record)
 
 
 def _cmd_data(args: argparse.Namespace) -> None:

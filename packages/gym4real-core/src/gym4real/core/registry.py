@@ -217,9 +217,14 @@ def _name_conflict(
     for (dist, version), ep in claimants:
         others = [(d, o.value) for d, o in claimants if o is not ep]
         also = ", ".join(f"{d} {v} (`{value}`)" for (d, v), value in others)
-        uninstall = " or ".join(f"`pip uninstall {d}`" for d in [*(d for (d, _), _ in others), dist])
         error = f"entry point `{name}` (`{ep.value}`) is also provided by {also}"
-        _report(reg, PluginError(name, dist, version, "conflict", error, f"keep only one of them: {uninstall}"))
+        fix = _keep_one([*(d for (d, _), _ in others), dist])
+        _report(reg, PluginError(name, dist, version, "conflict", error, fix))
+
+
+def _keep_one(dists: list[str]) -> str:
+    """The fix of a conflict between ``dists``."""
+    return "keep only one of them: " + " or ".join(f"`pip uninstall {d}`" for d in dists)
 
 
 def _key(rec: Record) -> str:
@@ -319,8 +324,8 @@ def _clashes(reg: Registry, records: dict[str, list[Record]]) -> set[str]:
             f"{', '.join(f'`{k}`' for k in keys)} also registered by plugin `{o}` ({' '.join(reg.distributions[o])})"
             for o, keys in sorted(others.items())
         )
-        uninstall = " or ".join(f"`pip uninstall {d}`" for d in [*(reg.distributions[o][0] for o in others), dist])
-        _report(reg, PluginError(plugin, dist, version, "conflict", also, f"keep only one of them: {uninstall}"))
+        fix = _keep_one([*(reg.distributions[o][0] for o in others), dist])
+        _report(reg, PluginError(plugin, dist, version, "conflict", also, fix))
     return set(clashes)
 
 

@@ -17,8 +17,8 @@ from typing import Any
 
 import pandas as pd
 
-#: Order of the budgets on the page.
-_BUDGETS = ("paper", "quick")
+from gym4real.core.rl.reproduce import slug
+
 _FIGURES = (
     ("cumulative_reward.png", "mean cumulative reward on the test episodes (95 % band)"),
     ("returns_boxplot.png", "test returns (all seeds' episodes)"),
@@ -180,7 +180,7 @@ def claims_table(claims: list[dict[str, Any]]) -> str:
             if comp
             else c.get("reason", "")
         )
-        lines.append(f"| `{c['env_id'].split('/')[-1]}` | {c['budget']} | {c['text']} | **{c['verdict']}** | {where} |")
+        lines.append(f"| `{slug(c['env_id'])}` | {c['budget']} | {c['text']} | **{c['verdict']}** | {where} |")
     return "\n".join(lines) + "\n"
 
 
