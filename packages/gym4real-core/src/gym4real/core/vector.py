@@ -1,8 +1,12 @@
-"""What the native batched envs share: the episode limit Gymnasium passes to a vector entry point."""
+"""What the native batched envs share: the episode limit of a vector entry point, their copies' generators."""
 
 from __future__ import annotations
 
 import operator
+from typing import Any
+
+import numpy as np
+from gymnasium.utils import seeding
 
 
 def check_max_episode_steps(value: object) -> int | None:
@@ -23,3 +27,16 @@ def check_max_episode_steps(value: object) -> int | None:
     if steps is None or steps < 1:
         raise ValueError(f"max_episode_steps must be a positive int (or None for no limit), not {value!r}")
     return steps
+
+
+def copy_generators(env: Any, current: list[np.random.Generator] | None, seed: int | None) -> list[np.random.Generator]:
+    """The generators of a native vector env's copies at a reset, as ``SyncVectorEnv``'s copies have theirs.
+
+    Copy ``i`` is seeded with ``seed + i``; without a seed the ``current`` ones go on, and the first time
+    they are seeded from the batch's own generator (``env.np_random``).
+    """
+    if seed is not None:
+        return [seeding.np_random(seed + i)[0] for i in range(env.num_envs)]
+    if current is None:
+        return [seeding.np_random(int(k))[0] for k in env.np_random.integers(2**31, size=env.num_envs)]
+    return current

@@ -7,13 +7,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from gym4real.core.actions import box_actions
 from gym4real.core.errors import ConfigError
-from gym4real.core.vector import check_max_episode_steps
+from gym4real.core.vector import check_max_episode_steps, copy_generators
 from gym4real.dam.config import DamConfig
 from gym4real.dam.env import _RESET_OPTIONS, COMPONENTS, RELEASE, DamEnv
 
@@ -211,10 +210,7 @@ class DamVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
             if bad:
                 raise ValueError(f"reset option `year`: {bad} are not years of this env {list(years)}")
         if self.config.year_selection == "random":
-            if seed is not None:
-                self._rngs = [seeding.np_random(seed + i)[0] for i in range(self.num_envs)]
-            elif self._rngs is None:  # never seeded: copies seeded from the batch's own generator
-                self._rngs = [seeding.np_random(int(k))[0] for k in self.np_random.integers(2**31, size=self.num_envs)]
+            self._rngs = copy_generators(self, self._rngs, seed)
         if options.get("year") is not None:
             self._cycle = np.array([years.index(y) for y in wanted])
             return self._cycle

@@ -8,12 +8,11 @@ from typing import Any
 
 import numpy as np
 from gymnasium import spaces
-from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from gym4real.core.actions import discrete_actions
-from gym4real.core.vector import check_max_episode_steps
+from gym4real.core.vector import check_max_episode_steps, copy_generators
 from gym4real.elevator import arrivals
 from gym4real.elevator.config import ElevatorConfig
 from gym4real.elevator.env import ACTIONS, DOWN, OPEN, UP, ElevatorEnv
@@ -92,10 +91,7 @@ class ElevatorVectorEnv(VectorEnv[dict[str, Any], np.ndarray, np.ndarray]):
         cfg, f, s = self.config, self.config.floors, self.single
         table = np.empty_like(self._arrivals)
         position = np.empty(self.num_envs, dtype=np.int64)
-        if seed is not None:
-            self._rngs = [seeding.np_random(seed + i)[0] for i in range(self.num_envs)]
-        elif self._rngs is None:  # never seeded: copies seeded from the batch's own generator
-            self._rngs = [seeding.np_random(int(k))[0] for k in self.np_random.integers(2**31, size=self.num_envs)]
+        self._rngs = copy_generators(self, self._rngs, seed)
         for i, rng in enumerate(self._rngs):
             rates = arrivals.draw_rates(rng, len(self._served), f.lambda_min, f.lambda_max)
             table[i, :-1] = arrivals.corrected_arrivals(rng, rates, cfg.duration, f.max_arrivals)

@@ -14,12 +14,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from gym4real.core.actions import box_actions
-from gym4real.core.vector import check_max_episode_steps
+from gym4real.core.vector import check_max_episode_steps, copy_generators
 from gym4real.microgrid.aging import AgingParams
 from gym4real.microgrid.battery import KELVIN, BatteryParams
 from gym4real.microgrid.config import MicrogridConfig
@@ -405,11 +404,9 @@ class MicrogridVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         """
         super().reset(seed=seed)
         n = self.num_envs
+        self._rngs = copy_generators(self, self._rngs, seed)
         if seed is not None:
-            self._rngs = [seeding.np_random(seed + i)[0] for i in range(n)]
             self._cursor = (seed + np.arange(n)) % len(self.single.profiles)
-        elif self._rngs is None:
-            self._rngs = [seeding.np_random(int(k))[0] for k in self.np_random.integers(2**31, size=n)]
         idx = np.arange(n)
         self._start(idx, options or {})
         self._autoreset[:] = False

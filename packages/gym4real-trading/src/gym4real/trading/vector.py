@@ -8,12 +8,11 @@ from typing import Any
 
 import numpy as np
 from gymnasium import spaces
-from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from gym4real.core.actions import discrete_actions
-from gym4real.core.vector import check_max_episode_steps
+from gym4real.core.vector import check_max_episode_steps, copy_generators
 from gym4real.trading.config import TradingConfig
 from gym4real.trading.env import ACTIONS, FLAT, TradingEnv
 
@@ -78,10 +77,7 @@ class TradingVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         if self.single.config.sequential:
             self._days = (seed + self._rows) % n if seed is not None else (self._days + 1) % n
         else:
-            if seed is not None:
-                self._rngs = [seeding.np_random(seed + i)[0] for i in range(self.num_envs)]
-            elif self._rngs is None:  # never seeded: copies seeded from the batch's own generator
-                self._rngs = [seeding.np_random(int(k))[0] for k in self.np_random.integers(2**31, size=self.num_envs)]
+            self._rngs = copy_generators(self, self._rngs, seed)
             self._days = np.array([int(rng.integers(n)) for rng in self._rngs])
         self._load(self._days)
         self._needs_reset = False
