@@ -66,14 +66,18 @@ def heatmap_rates(
     return rates, coords
 
 
-def reachable_cells(coords: np.ndarray, env_kwargs: dict[str, Any] | None = None) -> np.ndarray:
-    """Whether the arm reaches each cell centre of the heat-map grid (rows = image y, columns = image x)."""
+def _workspace(coords: np.ndarray, env_kwargs: dict[str, Any] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The heat map's workspace, from one env.
+
+    Returns whether the arm reaches each cell centre of the grid (rows = image y, columns = image x), and the
+    empty bin seen by the top-down camera (objects out of view).
+    """
     from gym4real.robofeeder.env import RoboFeederPickingEnv
 
     env = RoboFeederPickingEnv(preset="test", **(env_kwargs or {}))
     try:
         size = env.size
-        return np.array(
+        reachable = np.array(
             [
                 [
                     env.sim.arm_reaches(env.sim.camera.pixel_to_world((np.array([x, y]) + 1.0) * size / 2.0))
@@ -82,18 +86,8 @@ def reachable_cells(coords: np.ndarray, env_kwargs: dict[str, Any] | None = None
                 for y in coords
             ]
         )
-    finally:
-        env.close()
-
-
-def _background(env_kwargs: dict[str, Any] | None = None) -> np.ndarray:
-    """The empty bin seen by the top-down camera (objects out of view)."""
-    from gym4real.robofeeder.env import RoboFeederPickingEnv
-
-    env = RoboFeederPickingEnv(preset="test", **(env_kwargs or {}))
-    try:
         env.reset(seed=0, options={"placements": [[0.0, 5.0]]})  # an object far outside the image
-        return env.sim.render("top_down")
+        return reachable, env.sim.render("top_down")
     finally:
         env.close()
 
@@ -116,8 +110,7 @@ def picking_heatmap(
     out.mkdir(parents=True, exist_ok=True)
     results = {p: heatmap_rates(p, grid, seeds, env_kwargs=env_kwargs) for p in policies}
     coords = next(iter(results.values()))[1]
-    reachable = reachable_cells(coords, env_kwargs)
-    frame = _background(env_kwargs)
+    reachable, frame = _workspace(coords, env_kwargs)
     size = frame.shape[0]
     fig, axes = plt.subplots(1, len(policies), figsize=(4.6 * len(policies), 4.4), squeeze=False)
     for ax, (name, (rates, coords)) in zip(axes[0], results.items(), strict=True):

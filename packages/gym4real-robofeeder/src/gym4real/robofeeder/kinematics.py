@@ -125,9 +125,14 @@ class ArmKinematics:
         return IKResult(q=q, position_error=err_p, axis_error=err_r, ok=bool(ok))
 
     def solve_from(self, target: np.ndarray, seeds: list[np.ndarray], *, fixed_j6: float | None = None) -> IKResult:
-        """:meth:`solve` from each seed in turn; the first converged solution, else the most accurate one."""
+        """:meth:`solve` from each seed in turn; the first converged solution, else the most accurate one.
+
+        A seed equal to an earlier one is skipped (the solve is deterministic: it would fail again).
+        """
         best: IKResult | None = None
-        for seed in seeds:
+        for i, seed in enumerate(seeds):
+            if any(np.array_equal(seed, earlier) for earlier in seeds[:i]):
+                continue
             result = self.solve(target, seed, fixed_j6=fixed_j6)
             if result.ok:
                 return result
