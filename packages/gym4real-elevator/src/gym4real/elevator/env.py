@@ -277,7 +277,7 @@ class ElevatorEnv(gym.Env[dict[str, Any], int]):
         """
         if self._renderer is not None:
             arrivals = dict(zip(self._served_floors, self._futures, strict=True))
-            return self._renderer.frame(self._t, self._pos, self._load, self._queues, arrivals, self._served_floors)
+            return self._renderer.frame(self._t, self._pos, self._load, self._queues, arrivals)
         if self.render_mode != "ansi":
             return None
         e = self.config.elevator

@@ -94,9 +94,7 @@ class ElevatorRenderer:
             x += 18
         return x
 
-    def frame(
-        self, t: int, position: int, load: int, queues: Sequence[int], arrivals: dict[int, int], served: Sequence[int]
-    ) -> np.ndarray:
+    def frame(self, t: int, position: int, load: int, queues: Sequence[int], arrivals: dict[int, int]) -> np.ndarray:
         """The frame after ``t`` seconds.
 
         Args:
@@ -105,7 +103,6 @@ class ElevatorRenderer:
             load: Passengers in the cabin.
             queues: People waiting at each floor (lowest first).
             arrivals: People who appeared this second, by floor index (they queue next second).
-            served: The floor indices that people arrive at.
         """
         c = self._base.copy()
         delivered = self.delivered[-1] if self.delivered else 0
@@ -129,7 +126,7 @@ class ElevatorRenderer:
         for floor in range(self.n_floors):
             fy = self.floor_y(floor * self.ppf)
             x = self._people(c, x1 + 10, fy, queues[floor], ORANGE, hollow=False)
-            if floor in served and arrivals.get(floor):
+            if arrivals.get(floor):
                 self._people(c, x + 4, fy, arrivals[floor], ORANGE, hollow=True)
 
         px = PLOT[0]
