@@ -11,10 +11,10 @@
 from __future__ import annotations
 
 import hashlib
+import importlib.util
 import json
 import os
 from pathlib import Path
-from shutil import which
 
 import nox
 
@@ -151,15 +151,13 @@ def docs(session: nox.Session) -> None:
     saved in results/docs/screenshots/, failing on a console error, a broken image or a page that does
     not render.
     """
-    chromium = next(
-        (p for c in (os.environ.get("GYM4REAL_CHROMIUM"), "chromium", "chromium-browser") if c and (p := which(c))),
-        None,
-    )
+    spec = importlib.util.spec_from_file_location("check_site", ROOT / "docs" / "check_site.py")
+    assert spec is not None and spec.loader is not None
+    site_check = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(site_check)  # its lookup of the browser, checked before the long part of the session
+    chromium = site_check.find_chromium(None)
     if chromium is None:
-        session.error(
-            "the docs check opens every page in Chromium, which is not installed: `apt-get install -y chromium` "
-            "(Debian/Ubuntu), or set GYM4REAL_CHROMIUM to a Chrome or Chromium binary"
-        )
+        session.error(site_check.INSTALL)
     session.install(
         *(_editable(d).removesuffix("[rl,mo,offline]") for d in PACKAGES), "mkdocs-material>=9.5", "playwright>=1.40"
     )
