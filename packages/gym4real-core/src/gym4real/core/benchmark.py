@@ -96,10 +96,11 @@ class BenchmarkResult:
     def summary(self) -> pd.DataFrame:
         """One row per policy (by label): mean, std, interquartile mean and 95 % bootstrap CI of the return."""
         rows = []
+        labels = self.labels
         for name, rets in self.returns.items():
             lo, hi = stats.bootstrap_ci(rets)
             row: dict[str, Any] = {
-                "policy": self.labels[name],
+                "policy": labels[name],
                 "episodes": len(rets),
                 "mean": float(np.mean(rets)),
                 "std": float(np.std(rets)),
@@ -144,11 +145,12 @@ class BenchmarkResult:
     def per_episode(self) -> pd.DataFrame:
         """One row per (policy, episode) with return, objective, components and final info."""
         rows = []
+        labels = self.labels
         for name, rets in self.returns.items():
             objective = self.objective_values(name)
             for i, ret in enumerate(rets):
                 row: dict[str, Any] = {
-                    "policy": self.labels[name],
+                    "policy": labels[name],
                     "episode": i,
                     **_jsonable(self.episodes[i]),
                     "return": ret,

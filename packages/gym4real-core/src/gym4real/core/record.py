@@ -18,7 +18,7 @@ import gymnasium as gym
 import numpy as np
 from PIL import Image
 
-from gym4real.core.benchmark import run_episode
+from gym4real.core.benchmark import policy_name, run_episode
 from gym4real.core.canvas import captioned
 from gym4real.core.errors import ConfigError, Gym4RealError
 from gym4real.core.policies import make_policy
@@ -71,7 +71,7 @@ def _mp4_writer(path: Path, size: tuple[int, int], fps: float) -> Any:
 def policy_label(policy: str | Callable[[Any], Any]) -> str:
     """The policy's name for captions and file names (``ppo:runs/x/model.zip`` -> ``ppo-model``)."""
     if not isinstance(policy, str):
-        return str(getattr(policy, "__name__", type(policy).__name__))
+        return policy_name(policy)
     kind, sep, path = policy.partition(":")
     return f"{kind}-{Path(path).stem}" if sep else policy
 
