@@ -265,11 +265,10 @@ def train_sb3(
             self.next_eval = int(state["next_eval"]) if state else min(eval_freq, total)
             self.eval_steps = int(state["eval_steps"]) if state else 0
 
-        def _evaluate(self) -> None:
-            stats = None
-            if isinstance(venv, VecNormalize) and norm_obs:
-                _save_normalization(venv, out / "normalize.candidate.npz")
-                stats = dict(np.load(out / "normalize.candidate.npz", allow_pickle=False))
+        def _evaluate(self, save_checkpoint: bool = True) -> None:
+            stats: dict[str, Any] | None = None
+            if isinstance(venv, VecNormalize) and norm_obs:  # a copy: training goes on updating the statistics
+                stats = {k: np.array(v) for k, v in _rms_arrays(venv).items()}
             policy = NormalizedPolicy(self.model, stats, eval_env.action_space)
             rewards = [run_episode(eval_env, policy, eval_seed + i, None)["rewards"] for i in range(eval_episodes)]
             self.eval_steps += sum(len(r) for r in rewards)
@@ -278,8 +277,9 @@ def train_sb3(
                 self.best = mean
                 self.model.save(model_path)
                 if stats is not None:
-                    (out / "normalize.candidate.npz").replace(out / "normalize.npz")
-            self._checkpoint()
+                    np.savez(out / "normalize.npz", **stats)
+            if save_checkpoint:
+                self._checkpoint()
 
         def _checkpoint(self) -> None:
             checkpoint.mkdir(exist_ok=True)
@@ -309,12 +309,11 @@ def train_sb3(
 
         def _on_training_end(self) -> None:
             if not curve.rows or curve.rows[-1]["timesteps"] < self.num_timesteps:
-                self._evaluate()
+                self._evaluate(save_checkpoint=False)  # the run is over: its checkpoint is removed
 
     out.mkdir(parents=True, exist_ok=True)
     callback = Evaluate()
     model.learn(total_timesteps=max(total - done_before, 0), callback=callback, reset_num_timesteps=state is None)
-    (out / "normalize.candidate.npz").unlink(missing_ok=True)
     venv.close()
     eval_env.close()
     shutil.rmtree(checkpoint, ignore_errors=True)
