@@ -40,11 +40,14 @@ class LearningCurve:
         return mean
 
     @classmethod
-    def load(cls, out: Path, unit: str) -> LearningCurve:
-        """The curve written in ``out`` so far (empty when there is none): a resumed run appends to it."""
+    def load(cls, out: Path, unit: str, upto: float = float("inf")) -> LearningCurve:
+        """The curve written in ``out`` so far (empty when there is none): a resumed run appends to it.
+
+        Rows past ``upto`` (the progress of the checkpoint a run resumes from) were written after it: dropped.
+        """
         curve = cls(out, unit)
         if curve.csv.exists():
-            curve.rows = pd.read_csv(curve.csv).to_dict("records")
+            curve.rows = [r for r in pd.read_csv(curve.csv).to_dict("records") if r[unit] <= upto]
         return curve
 
     @property

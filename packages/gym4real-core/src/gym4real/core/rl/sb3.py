@@ -251,12 +251,11 @@ def train_sb3(
         if buffer is not None and (checkpoint / "buffer.npz").exists():
             _load_buffer(buffer, checkpoint / "buffer.npz")
     eval_env = gym.make(env_id, **(hp.get("eval_env_kwargs") or hp.get("env_kwargs", {})))
-    curve = LearningCurve.load(out, "timesteps")
     model_path = out / "model.zip"
     eval_freq, eval_episodes, eval_seed = int(hp["eval_freq"]), int(hp["eval_episodes"]), int(hp["eval_seed"])
     total = int(hp["total_timesteps"])
     done_before = int(state["timesteps"]) if state else 0
-    curve.rows = [r for r in curve.rows if r["timesteps"] <= done_before]
+    curve = LearningCurve.load(out, "timesteps", upto=done_before)
 
     class Evaluate(BaseCallback):  # type: ignore[misc]
         def __init__(self) -> None:

@@ -258,8 +258,7 @@ def train_tabular(
         q, best_q = saved["q"], saved["best_q"]
         best, eps, done, stale = float(saved["best"]), float(saved["eps"]), int(saved["episode"]), int(saved["stale"])
         steps["train"], steps["eval"] = int(saved["train_steps"]), int(saved["eval_steps"])
-    curve = LearningCurve.load(out, "episodes")
-    curve.rows = [r for r in curve.rows if r["episodes"] <= done]
+    curve = LearningCurve.load(out, "episodes", upto=done)
 
     if kernel is not None:
         from gym4real.core.rl.compiled import run_episode as compiled_episode
