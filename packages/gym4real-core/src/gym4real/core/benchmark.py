@@ -21,7 +21,7 @@ import pandas as pd
 
 from gym4real.core import stats
 from gym4real.core.errors import ConfigError
-from gym4real.core.policies import load_object, make_policy
+from gym4real.core.policies import baseline_names, load_object, make_policy
 from gym4real.core.registry import base_env, env_spec, registry
 from gym4real.core.specs import BenchmarkSpec
 from gym4real.wrappers.multi_objective import MultiObjective
@@ -263,18 +263,19 @@ def benchmark(
         out: If given, write the results and figures there.
     """
     env_spec(env_id)  # a clear error for an unknown or unavailable id
-    base = base_env(env_id)  # a vector-reward variant is benchmarked on its env's protocol and baselines
-    spec = registry().benchmarks.get(base)
+    # a vector-reward variant is benchmarked on its env's protocol and baselines
+    spec = registry().benchmarks.get(base_env(env_id))
     kwargs: dict[str, Any] = dict(env_kwargs or {})
     if episodes == "test":
-        kwargs = {**protocol(env_id).env_kwargs, **kwargs}
-        plan: list[dict[str, Any]] = load_object(protocol(env_id).protocol)(kwargs)
+        test = protocol(env_id)
+        kwargs = {**test.env_kwargs, **kwargs}
+        plan: list[dict[str, Any]] = load_object(test.protocol)(kwargs)
     elif isinstance(episodes, int) and episodes > 0:
         plan = seeded_episodes(episodes, seed)
     else:
         raise ConfigError(f'`episodes` must be "test" or a positive int, not {episodes!r}')
     if not policies:
-        policies = list(spec.policies) if spec and spec.policies else sorted(registry().baselines.get(base, {}))
+        policies = list(spec.policies) if spec and spec.policies else baseline_names(env_id)
     result = BenchmarkResult(
         env_id, plan, objective=spec.objective if spec else (), step_unit=spec.step_unit if spec else "step"
     )

@@ -39,7 +39,7 @@ class EnvInfo:
 
 def env_info(env_id: str) -> EnvInfo:
     """Return the record of an installed environment (raises a helpful error for an unknown id)."""
-    from gym4real.core.policies import load_object
+    from gym4real.core.policies import baseline_names, load_object
 
     spec = env_spec(env_id)
     reg = registry()
@@ -53,7 +53,7 @@ def env_info(env_id: str) -> EnvInfo:
         flags={f: f in spec.flags for f in FLAGS},
         presets=spec.presets,
         datasets=spec.datasets,
-        baselines=tuple(sorted(reg.baselines.get(base_env(env_id), {}))),
+        baselines=tuple(baseline_names(env_id)),
         trainings=tuple(sorted(f"{a}/{p}" for (e, a, p) in reg.trainings if e == env_id)),
         extra=extra,
     )
