@@ -84,9 +84,19 @@ def _what_it_runs(env_id: str, budget: str) -> str:
     )
 
 
-def _section(folder: Path, figures: str) -> list[str]:
+def _read(folder: Path) -> tuple[dict[str, Any], pd.DataFrame, list[dict[str, Any]]]:
+    """A finished env folder's ``report.json``, ``summary.csv`` and ``claims.json``."""
+    return (
+        json.loads((folder / "report.json").read_text()),
+        pd.read_csv(folder / "summary.csv"),
+        json.loads((folder / "claims.json").read_text()),
+    )
+
+
+def _section(folder: Path, found: tuple[dict[str, Any], pd.DataFrame, list[dict[str, Any]]] | None) -> list[str]:
+    """The page's section of one env folder; ``found`` is its :func:`_read`, None when it has no results."""
     env, budget = folder.parent.name, folder.name
-    if not _has_results(folder):
+    if found is None:
         error = (folder / "error.txt").read_text().strip() if (folder / "error.txt").exists() else "no results"
         return [
             f"## `gym4real/{env}`, budget `{budget}`: not run",
@@ -96,9 +106,7 @@ def _section(folder: Path, figures: str) -> list[str]:
             _what_it_runs(f"gym4real/{env}", budget),
             "",
         ]
-    report = json.loads((folder / "report.json").read_text())
-    table = pd.read_csv(folder / "summary.csv")
-    claims = json.loads((folder / "claims.json").read_text())
+    report, table, claims = found
     lines = [
         f"## `{report['env_id']}`, budget `{budget}`",
         "",
@@ -149,7 +157,7 @@ def _section(folder: Path, figures: str) -> list[str]:
     lines.append("")
     for name, caption in _FIGURES:
         if (folder / name).exists():
-            lines += [f"![{report['env_id']}: {caption}]({figures}/{env}-{budget}/{name})", ""]
+            lines += [f"![{report['env_id']}: {caption}](figures/{env}-{budget}/{name})", ""]
     return lines
 
 
@@ -187,16 +195,14 @@ def claims_table(claims: list[dict[str, Any]]) -> str:
 def write_page(out: Path, page: str | Path | None = None) -> Path:
     """Write ``out/results.md`` (and ``page/index.md`` with its figures) from the env folders in ``out``."""
     folders = _folders(out)
+    found = {folder: _read(folder) for folder in folders if _has_results(folder)}
     claims: list[dict[str, Any]] = []
     tables = []
     versions: dict[str, str] = {}
-    for folder in folders:
-        if _has_results(folder):
-            report = json.loads((folder / "report.json").read_text())
-            versions.update({k: v for k, v in report["versions"].items() if k != "gym4real (git)"})
-            for c in json.loads((folder / "claims.json").read_text()):
-                claims.append({**c, "budget": folder.name})
-            tables.append(pd.read_csv(folder / "summary.csv").assign(env_id=report["env_id"], budget=folder.name))
+    for folder, (report, table, env_claims) in found.items():
+        versions.update({k: v for k, v in report["versions"].items() if k != "gym4real (git)"})
+        claims += [{**c, "budget": folder.name} for c in env_claims]
+        tables.append(table.assign(env_id=report["env_id"], budget=folder.name))
     (out / "claims.json").write_text(json.dumps(claims, indent=1))
     (out / "claims.md").write_text(claims_table(claims))
     if tables:
@@ -224,7 +230,7 @@ def write_page(out: Path, page: str | Path | None = None) -> Path:
     ]
     body: list[str] = []
     for folder in folders:
-        body += _section(folder, "figures")
+        body += _section(folder, found.get(folder))
     text = "\n".join(head + body)
     (out / "results.md").write_text(text)
     shutil.rmtree(out / "figures", ignore_errors=True)
