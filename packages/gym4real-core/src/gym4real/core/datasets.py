@@ -186,15 +186,15 @@ def resolve(
     if download is None:
         download = not _offline()
     dropped = ""
-    for where, folder in places(data_dir):
-        path = folder / spec.path
-        if path.is_file():
-            if where == "user cache" and download and not is_intact(spec, path):
-                dropped = f"; the corrupt copy in the user cache (sha256 {sha256_of(path)}) was removed"
-                path.unlink()  # our own cache: drop a corrupt copy and fetch it again
-                continue
-            _check(spec, path, where)
-            return path
+    copy = find(name, data_dir)
+    if copy is not None:
+        if copy.where != "user cache" or not download:
+            _check(spec, copy.path, copy.where)
+            return copy.path
+        if is_intact(spec, copy.path):
+            return copy.path
+        dropped = f"; the corrupt copy in the user cache (sha256 {sha256_of(copy.path)}) was removed"
+        copy.path.unlink()  # our own cache: drop a corrupt copy and fetch it again
     if not download:
         raise _missing(spec, data_dir)
     try:
