@@ -212,7 +212,7 @@ class World:
         temperature: Path | None,
         step: float,
         temp_step: float,
-        dummy: tuple[float, float, float, float] = (10.0, 0.00021, 0.00014, 298.15),
+        dummy: tuple[float, float, float, float],
     ) -> World:
         """Read and cross-check the files of a split; a missing series (None) is a constant.
 
