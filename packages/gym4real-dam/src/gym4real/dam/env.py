@@ -245,6 +245,7 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
         paths = {w: resolve(f"dam/{w}/{cfg.split}", cfg.data_dir) for w in ("demand", "inflow")}
         self._demand = read_yearly(paths["demand"], "demand", 0.0, cfg.max_demand)
         self._inflow = read_yearly(paths["inflow"], "inflow", 0.0, cfg.max_inflow)
+        self._calendars: dict[int, tuple[tuple[int, ...], tuple[int, ...]]] = {}  # of `_calendar`, by year
         for year in self._demand.years:
             n_in = len(self._inflow.values.get(year, ()))
             if n_in != len(self._demand.values[year]):
@@ -327,14 +328,17 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
         return ep
 
     def _calendar(self, year: int) -> tuple[tuple[int, ...], tuple[int, ...]]:
-        """Per step of an episode starting in ``year``: the 0-based day of year and the calendar year."""
-        cfg = self.config
-        offsets = range(cfg.doy - 1, cfg.doy - 1 + cfg.sim_horizon)
-        years = []
-        for o in offsets:
-            later = year + o // cfg.period
-            years.append(later if later in self._demand.values and later in self._inflow.values else year)
-        return tuple(o % cfg.period for o in offsets), tuple(years)
+        """Per step of an episode starting in ``year``: the 0-based day of year and the calendar year (cached)."""
+        found = self._calendars.get(year)
+        if found is None:
+            cfg = self.config
+            offsets = range(cfg.doy - 1, cfg.doy - 1 + cfg.sim_horizon)
+            years = []
+            for o in offsets:
+                later = year + o // cfg.period
+                years.append(later if later in self._demand.values and later in self._inflow.values else year)
+            found = self._calendars[year] = (tuple(o % cfg.period for o in offsets), tuple(years))
+        return found
 
     def _inflows(self, year: int, scale: float) -> tuple[float, ...]:
         """The inflow of each step of an episode starting in ``year``, scaled by ``scale``."""
