@@ -22,8 +22,8 @@ import gymnasium as gym
 import numpy as np
 
 import gym4real
+from gym4real.core.rl.plan import presets
 from gym4real.core.rl.presets import load_preset
-from gym4real.core.rl.reproduce import presets
 
 DEFAULT = (
     "gym4real/elevator-v0:qlearning:paper,gym4real/elevator-v0:sarsa:paper,gym4real/dam-v0:ppo:paper,"

@@ -14,7 +14,8 @@ import pytest
 
 import gym4real
 from gym4real.core.benchmark import BenchmarkResult
-from gym4real.core.rl.reproduce import plan, pooled, presets, reproduce, seeds
+from gym4real.core.rl.plan import plan, presets, seeds
+from gym4real.core.rl.reproduce import pooled, reproduce
 
 VERDICTS = {"holds", "does not hold", "inconclusive"}
 

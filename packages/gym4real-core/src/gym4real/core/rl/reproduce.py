@@ -33,116 +33,12 @@ import pandas as pd
 
 from gym4real.core import stats
 from gym4real.core.benchmark import BenchmarkResult, benchmark, protocol
-from gym4real.core.errors import ConfigError, Gym4RealError
-from gym4real.core.registry import registry
-from gym4real.core.rl.presets import load_preset
-from gym4real.core.rl.train import TrainingRun, finished_run, train, versions
+from gym4real.core.errors import Gym4RealError
+from gym4real.core.rl.plan import Item, plan, slug
+from gym4real.core.rl.progress import PlanProgress
+from gym4real.core.rl.runner import describe_error, train_plan
+from gym4real.core.rl.train import TrainingRun, versions
 from gym4real.core.specs import Claim
-
-#: Budget -> the preset that serves it when no preset declares it (``TrainingSpec.budget``).
-BUDGETS = {"paper": "paper", "quick": "smoke"}
-#: Seeds when a budget's presets name none (the paper's appendix gives no seed).
-DEFAULT_SEEDS = 5
-#: Seeds of the quick budget (the first of the paper's).
-QUICK_SEEDS = 2
-
-
-def slug(env_id: str) -> str:
-    """``gym4real/dam-v0`` -> ``dam-v0``."""
-    return env_id.split("/", 1)[-1]
-
-
-def presets(env_id: str, budget: str) -> dict[str, str]:
-    """The training preset of each algorithm of ``env_id`` for ``budget``: one declared for it, else the budget's."""
-    if budget not in BUDGETS:
-        raise ConfigError(f"budget `{budget}` is not one of {sorted(BUDGETS)}")
-    found: dict[str, str] = {}
-    for (env, algo, preset), spec in sorted(registry().trainings.items()):
-        if env == env_id and spec.budget == budget:
-            found[algo] = preset
-    for env, algo, preset in sorted(registry().trainings):
-        if env == env_id and preset == BUDGETS[budget]:
-            found.setdefault(algo, preset)
-    return found
-
-
-def seeds(env_id: str, budget: str, n: int | None = None) -> list[int]:
-    """The training seeds: the paper's (from the ``paper`` budget's presets), then 0, 1, 2, ...
-
-    Args:
-        env_id: A registered id.
-        budget: ``paper`` or ``quick``.
-        n: How many (default: as many as the paper used, 5 if it names none; 2 for ``quick``).
-    """
-    paper: list[int] = []
-    for algo, preset in presets(env_id, "paper").items():
-        for s in load_preset(env_id, algo, preset)["seeds"]:
-            if s not in paper:
-                paper.append(s)
-    if n is None:
-        n = len(paper) or DEFAULT_SEEDS
-        if budget == "quick":
-            n = min(n, QUICK_SEEDS)
-    if n < 1:
-        raise ConfigError(f"--seeds must be at least 1, not {n}")
-    extra = (s for s in range(10**6) if s not in paper)
-    return (paper + [next(extra) for _ in range(max(0, n - len(paper)))])[:n]
-
-
-@dataclass(frozen=True)
-class Item:
-    """One training run of the plan."""
-
-    env_id: str
-    algo: str
-    preset: str
-    seed: int
-    folder: Path
-
-
-def plan(env_id: str, budget: str, n_seeds: int | None, out: Path) -> list[Item]:
-    """The training runs of ``env_id`` for ``budget``, in ``out/<env>/<budget>/runs/<algo>/seed<S>``."""
-    algos = presets(env_id, budget)
-    if not algos:
-        raise ConfigError(f"`{env_id}` registers no training preset for the `{budget}` budget")
-    base = out / slug(env_id) / budget / "runs"
-    run_seeds = seeds(env_id, budget, n_seeds)
-    return [
-        Item(env_id, algo, preset, s, base / algo / f"seed{s}") for algo, preset in algos.items() for s in run_seeds
-    ]
-
-
-class PlanProgress:
-    """One progress bar over a whole plan: its training runs and each environment's test, one unit each."""
-
-    def __init__(self, total: int, show: bool) -> None:
-        self.closed = 0
-        self.bar = None
-        if show:
-            from tqdm.auto import tqdm
-
-            self.bar = tqdm(
-                total=total,
-                desc="reproduce",
-                bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.2f}/{total} runs and tests [{elapsed}<{remaining}]",
-            )
-
-    def item(self, env_id: str, done: int, total: int) -> None:
-        """The current item has ``done`` of its ``total`` units done (a trainer may overshoot its budget)."""
-        if self.bar is not None:
-            self.bar.set_description(f"reproduce {slug(env_id)}", refresh=False)
-            self.bar.update(self.closed + min(done / max(total, 1), 1.0) - self.bar.n)
-
-    def close_item(self) -> None:
-        """The current item is finished."""
-        self.closed += 1
-        if self.bar is not None:
-            self.bar.update(self.closed - self.bar.n)
-
-    def close(self) -> None:
-        """Close the bar."""
-        if self.bar is not None:
-            self.bar.close()
 
 
 def _scores(result: Any, name: str) -> np.ndarray:
@@ -286,29 +182,16 @@ def _curves(runs: list[TrainingRun], folder: Path) -> None:
 def reproduce_env(
     env_id: str,
     budget: str,
-    items: list[Item],
+    runs: list[TrainingRun],
     out: Path,
-    progress: PlanProgress | None = None,
+    command: str,
 ) -> EnvReport:
-    """Train (or reuse) the runs of ``items`` (the env's :func:`plan`), test them, check the claims, write."""
+    """Test the trained ``runs`` of ``env_id`` (one per algorithm and seed), check the claims, write."""
     from gym4real.core import plots
 
     folder = out / slug(env_id) / budget
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "error.txt").unlink(missing_ok=True)
-    runs: list[TrainingRun] = []
-    for item in items:
-        run = finished_run(item.folder, item.env_id, item.algo, item.preset, item.seed)
-        if run is None:
-
-            def on_progress(done: int, total: int, _env: str = env_id) -> None:
-                if progress is not None:
-                    progress.item(_env, done, total)
-
-            run = train(item.env_id, item.algo, item.preset, item.seed, item.folder, on_progress)
-        if progress is not None:
-            progress.close_item()
-        runs.append(run)
     spec = protocol(env_id)
     baselines = list(spec.policies)
     test_start = time.perf_counter()
@@ -328,7 +211,7 @@ def reproduce_env(
     report = {
         "env_id": env_id,
         "budget": budget,
-        "command": f"gym4real reproduce {env_id} --budget {budget} --seeds {len({i.seed for i in items})} --out {out}",
+        "command": command,
         "objective": list(spec.objective) or ["return"],
         "protocol": spec.description,
         "seeds": sorted({r.seed for r in runs}),
@@ -349,8 +232,6 @@ def reproduce_env(
         "versions": versions(),
     }
     (folder / "report.json").write_text(json.dumps(report, indent=1))
-    if progress is not None:
-        progress.close_item()
     return EnvReport(table, claims)
 
 
@@ -384,22 +265,25 @@ def reproduce(
         except Gym4RealError as exc:
             errors[env_id] = " ".join(str(exc).split())
     bar = PlanProgress(sum(len(items) for items in plans.values()) + len(plans), progress)
+    outcomes = train_plan([item for items in plans.values() for item in items], bar)
     lines = []
-    items_so_far = 0
     for env_id, items in plans.items():
-        items_so_far += len(items) + 1
+        mine = [o for o in outcomes if o.item.env_id == env_id]
+        failed = [o for o in mine if o.run is None]
         try:
-            report = reproduce_env(env_id, budget, items, out, bar)
+            if failed:
+                raise Gym4RealError(f"{len(failed)} training run(s) failed; first: {failed[0].error}")
+            n_seeds = len({i.seed for i in items})
+            command = f"gym4real reproduce {env_id} --budget {budget} --seeds {n_seeds} --out {out}"
+            report = reproduce_env(env_id, budget, [o.run for o in mine if o.run is not None], out, command)
         except Exception as exc:  # one env's failure (missing data, a bug) must not stop the others
-            name = "" if isinstance(exc, Gym4RealError) else f"{type(exc).__name__}: "
-            errors[env_id] = name + " ".join(str(exc).split())
+            errors[env_id] = describe_error(exc)
         else:
             lines += [f"== {env_id} ({budget})", report.table.to_string(float_format=lambda v: f"{v:.4g}"), ""]
             for c in report.claims:
                 lines.append(f"claim: {c['text']} -> {c['verdict']}")
             lines.append("")
-        while bar.closed < items_so_far:  # the remaining items of an env that failed
-            bar.close_item()
+        bar.close_item()
     for env_id, error in errors.items():
         folder = out / slug(env_id) / budget
         folder.mkdir(parents=True, exist_ok=True)

@@ -17,7 +17,7 @@ from typing import Any
 
 import pandas as pd
 
-from gym4real.core.rl.reproduce import slug
+from gym4real.core.rl.plan import slug
 
 _FIGURES = (
     ("cumulative_reward.png", "mean cumulative reward on the test episodes (95 % band)"),
@@ -63,8 +63,8 @@ def _folders(out: Path) -> list[Path]:
 def _what_it_runs(env_id: str, budget: str) -> str:
     """What ``gym4real reproduce ENV --budget B`` trains, tests and checks, in one sentence."""
     from gym4real.core.benchmark import protocol
+    from gym4real.core.rl.plan import presets, seeds
     from gym4real.core.rl.presets import load_preset
-    from gym4real.core.rl.reproduce import presets, seeds
 
     try:
         trained = []

@@ -19,7 +19,7 @@ import gymnasium as gym
 import numpy as np
 
 from gym4real.core.errors import ConfigError, PolicyError
-from gym4real.core.rl.train import Progress
+from gym4real.core.rl.progress import Progress
 
 #: PyTorch's index of CPU-only wheels.
 TORCH_CPU_INDEX = "https://download.pytorch.org/whl/cpu"

@@ -27,7 +27,7 @@ import numpy as np
 from gymnasium import spaces
 
 from gym4real.core.errors import PolicyError
-from gym4real.core.rl.train import Progress
+from gym4real.core.rl.progress import Progress
 
 
 class StateIndexer:

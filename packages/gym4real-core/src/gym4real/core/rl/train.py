@@ -11,7 +11,6 @@ from __future__ import annotations
 import json
 import subprocess
 import time
-from collections.abc import Callable
 from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
@@ -19,9 +18,7 @@ from typing import Any
 
 from gym4real.core.errors import ConfigError
 from gym4real.core.rl.presets import is_preset_file, load_preset
-
-Progress = Callable[[int, int], None]
-"""``progress(done, total)``: a trainer's progress in its unit (episodes or timesteps)."""
+from gym4real.core.rl.progress import Progress
 
 _VERSIONS = ("gym4real-core", "gymnasium", "numpy", "stable-baselines3", "torch", "numba")
 

@@ -1,0 +1,86 @@
+"""The plan of ``gym4real reproduce``: which training runs (env x algorithm x seed) a budget asks for.
+
+Each run of a plan is independent of the others (its own seed and folder), so an executor may run them in
+any order, one at a time or in parallel (:mod:`gym4real.core.rl.runner`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from gym4real.core.errors import ConfigError
+from gym4real.core.registry import registry
+from gym4real.core.rl.presets import load_preset
+
+#: Budget -> the preset that serves it when no preset declares it (``TrainingSpec.budget``).
+BUDGETS = {"paper": "paper", "quick": "smoke"}
+#: Seeds when a budget's presets name none (the paper's appendix gives no seed).
+DEFAULT_SEEDS = 5
+#: Seeds of the quick budget (the first of the paper's).
+QUICK_SEEDS = 2
+
+
+def slug(env_id: str) -> str:
+    """``gym4real/dam-v0`` -> ``dam-v0``."""
+    return env_id.split("/", 1)[-1]
+
+
+def presets(env_id: str, budget: str) -> dict[str, str]:
+    """The training preset of each algorithm of ``env_id`` for ``budget``: one declared for it, else the budget's."""
+    if budget not in BUDGETS:
+        raise ConfigError(f"budget `{budget}` is not one of {sorted(BUDGETS)}")
+    found: dict[str, str] = {}
+    for (env, algo, preset), spec in sorted(registry().trainings.items()):
+        if env == env_id and spec.budget == budget:
+            found[algo] = preset
+    for env, algo, preset in sorted(registry().trainings):
+        if env == env_id and preset == BUDGETS[budget]:
+            found.setdefault(algo, preset)
+    return found
+
+
+def seeds(env_id: str, budget: str, n: int | None = None) -> list[int]:
+    """The training seeds: the paper's (from the ``paper`` budget's presets), then 0, 1, 2, ...
+
+    Args:
+        env_id: A registered id.
+        budget: ``paper`` or ``quick``.
+        n: How many (default: as many as the paper used, 5 if it names none; 2 for ``quick``).
+    """
+    paper: list[int] = []
+    for algo, preset in presets(env_id, "paper").items():
+        for s in load_preset(env_id, algo, preset)["seeds"]:
+            if s not in paper:
+                paper.append(s)
+    if n is None:
+        n = len(paper) or DEFAULT_SEEDS
+        if budget == "quick":
+            n = min(n, QUICK_SEEDS)
+    if n < 1:
+        raise ConfigError(f"--seeds must be at least 1, not {n}")
+    extra = (s for s in range(10**6) if s not in paper)
+    return (paper + [next(extra) for _ in range(max(0, n - len(paper)))])[:n]
+
+
+@dataclass(frozen=True)
+class Item:
+    """One training run of the plan."""
+
+    env_id: str
+    algo: str
+    preset: str
+    seed: int
+    folder: Path
+
+
+def plan(env_id: str, budget: str, n_seeds: int | None, out: Path) -> list[Item]:
+    """The training runs of ``env_id`` for ``budget``, in ``out/<env>/<budget>/runs/<algo>/seed<S>``."""
+    algos = presets(env_id, budget)
+    if not algos:
+        raise ConfigError(f"`{env_id}` registers no training preset for the `{budget}` budget")
+    base = out / slug(env_id) / budget / "runs"
+    run_seeds = seeds(env_id, budget, n_seeds)
+    return [
+        Item(env_id, algo, preset, s, base / algo / f"seed{s}") for algo, preset in algos.items() for s in run_seeds
+    ]
