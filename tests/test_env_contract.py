@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -16,6 +18,13 @@ IDS = gym4real.list_envs(multi_objective=False)  # the vector-reward variants: t
 @pytest.mark.parametrize("env_id", IDS)
 def test_contract(env_id: str) -> None:
     check_contract(env_id, steps=20)
+
+
+@pytest.mark.parametrize("env_id", gym4real.list_envs())
+def test_making_a_listed_id_with_its_defaults_warns_nothing(env_id: str) -> None:
+    with warnings.catch_warnings(record=True) as caught:  # the filters in place, as a user's script has them
+        gym.make(env_id).close()
+    assert [str(w.message) for w in caught] == []
 
 
 @pytest.mark.parametrize("vector", ["sync", "async"])

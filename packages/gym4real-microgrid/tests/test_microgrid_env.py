@@ -1,7 +1,6 @@
 from __future__ import annotations
 
 import os
-import warnings
 from pathlib import Path
 
 import gymnasium as gym
@@ -15,7 +14,6 @@ import gym4real
 from gym4real.core.errors import ConfigError, DataFileError
 from gym4real.core.testing import check_contract
 from gym4real.microgrid import MicrogridEnv
-from gym4real.microgrid.data import TrainingOnTestDataWarning
 
 ENV_ID = "gym4real/microgrid-v0"
 DATA = Path(os.environ["GYM4REAL_DATA_DIR"]) / "microgrid"
@@ -261,12 +259,6 @@ def test_config_errors() -> None:
         MicrogridEnv(profiles=["999"])
 
 
-def test_train_preset_needs_the_training_profiles(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setenv("GYM4REAL_CACHE_DIR", str(tmp_path / "cache"))
-    with pytest.raises(DataFileError, match=r"profiles_train\.csv.*absent from the reference snapshot"):
-        MicrogridEnv(preset="train")
-
-
 def test_train_split_runs_with_a_user_demand_file(tmp_path: Path) -> None:
     rng = np.random.default_rng(0)
     frame = pd.DataFrame(rng.uniform(0, 2000, size=(8760, 3)), columns=["0", "1", "2"])
@@ -334,11 +326,3 @@ def test_upstream_needs_generation_data() -> None:
     env = MicrogridEnv(fidelity="upstream", data={"market": None, "temp_amb": None})  # these run in the reference
     obs, _ = env.reset()
     assert obs[env.feature_names.index("ask")] == np.float32(0.00021)
-
-
-def test_random_episodes_of_the_test_households_warn() -> None:
-    with pytest.warns(TrainingOnTestDataWarning, match='preset="train"'):
-        MicrogridEnv()  # the default preset: training settings on the 2019 test households
-    with warnings.catch_warnings():
-        warnings.simplefilter("error", TrainingOnTestDataWarning)
-        MicrogridEnv(preset="test")  # evaluation: the households in order

@@ -106,7 +106,41 @@ def _cmd_data(args: argparse.Namespace) -> None:
     if args.years:
         _fetch_years(args)
         return
+    if args.action == "synthesize":
+        _synthesize(args)
+        return
     data_command.run(args.action, args.names, args.urls)
+
+
+def _synthesize(args: argparse.Namespace) -> None:
+    """A domain's stand-in for data published nowhere we can reach (microgrid), via ``gym4real.<d>.standin``."""
+    import importlib
+
+    from gym4real.core.datasets import cache_dir
+
+    if len(args.names) != 1:
+        raise Gym4RealError("name one domain: `gym4real data synthesize microgrid`")
+    domain = args.names[0]
+    try:
+        module = importlib.import_module(f"gym4real.{domain}.standin")
+    except ModuleNotFoundError as exc:
+        raise Gym4RealError(f"domain `{domain}` has no stand-in data (no `gym4real.{domain}.standin`)") from exc
+    kwargs = {k: getattr(args, k) for k in ("households", "seed") if getattr(args, k) is not None}
+    bar = None
+    if not args.quiet:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(desc=f"synthesize {domain}", unit="household")
+
+    def progress(done: int, total: int) -> None:
+        if bar is not None:
+            bar.total = total
+            bar.update(done - bar.n)
+
+    path = module.synthesize(cache_dir() / module.PATH, jobs=args.jobs, progress=progress, **kwargs)
+    if bar is not None:
+        bar.close()
+    print(f"ok   {path} (provenance and SHA-256 in {path.with_suffix('.json').name})")
 
 
 def _fetch_years(args: argparse.Namespace) -> None:
@@ -211,12 +245,18 @@ def _parser() -> argparse.ArgumentParser:
     data = _command(sub, "data", "list, fetch or verify the data files", _cmd_data)
     data.add_argument(
         "action",
-        choices=["list", "fetch", "verify"],
-        help="list: where each file is; fetch: download the missing ones; verify: check each copy's SHA-256",
+        choices=["list", "fetch", "verify", "synthesize"],
+        help="list: where each file is; fetch: download the missing ones; verify: check each copy's SHA-256; "
+        "synthesize: write a domain's documented stand-in for data that is not published (microgrid: the "
+        "training households) into the user cache",
     )
     data.add_argument("names", nargs="*", help="domains or dataset names (default: all)")
     data.add_argument("--years", nargs="+", type=int, help="years to download from a domain's own source (trading)")
     data.add_argument("--urls", action="store_true", help="add each file's path and upstream address to the table")
+    data.add_argument("--households", type=int, default=None, help="synthesize: number of households (default 370)")
+    data.add_argument("--seed", type=int, default=None, help="synthesize: seed of the stand-in (default: the domain's)")
+    data.add_argument("--jobs", type=int, default=1, help="synthesize: worker processes")
+    data.add_argument("--quiet", action="store_true", help="synthesize: no progress bar")
 
     train = _command(sub, "train", "train an RL agent with a registered preset or a YAML preset file", _cmd_train)
     train.add_argument("env_id", help=ENV_ID_HELP)

@@ -116,11 +116,24 @@ def summary(env_id: str) -> dict[str, Any]:
             "objective": list(protocol.objective),
             "step_unit": protocol.step_unit,
         }
+    record["training_data"] = _training_data(env_id)
     try:
         record["interface"] = env_interface(env_id)
     except Exception as exc:  # a summary without the spaces beats no summary: say why they are missing
         record["interface"] = {"error": " ".join(f"{type(exc).__name__}: {exc}".split())}
     return record
+
+
+def _training_data(env_id: str) -> str | None:
+    """The domain's word on its training data when part of it is a stand-in (``gym4real.<d>.standin.status``)."""
+    import importlib
+
+    domain = env_id.split("/", 1)[-1].split("-", 1)[0]
+    try:
+        module = importlib.import_module(f"gym4real.{domain}.standin")
+    except ModuleNotFoundError:
+        return None
+    return str(module.status())
 
 
 def _listing(names: list[str] | tuple[str, ...], most: int = 8) -> str:
@@ -154,6 +167,8 @@ def summary_text(record: dict[str, Any], width: int = 100) -> str:
     rows.append(("training", _listing(record["trainings"])))
     domain = record["id"].split("/", 1)[-1].split("-", 1)[0]
     rows.append(("datasets", f"{_listing(record['datasets'], 4)} (`gym4real data list {domain}`)"))
+    if record.get("training_data"):
+        rows.append(("training data", record["training_data"]))
     rows += [(str(key), str(value)) for key, value in record["extra"].items()]
     label = max(len(k) for k, _ in rows) + 2
     lines = [f"{record['id']}: {record['description']}"]

@@ -20,11 +20,7 @@ import pandas as pd
 from gym4real.core.errors import DataFileError
 
 DOMAIN = "microgrid"
-TEST_DEMAND = "demand/test"
-
-
-class TrainingOnTestDataWarning(UserWarning):
-    """Episodes are drawn at random (as for training) from the households the paper evaluates on."""
+TRAIN_DEMAND = "demand/train"
 
 
 #: Unit and plausible range ``(low, high, unit)`` of every value column (demand: each household column).
@@ -52,6 +48,36 @@ def data_path(ref: str, data_dir: str | Path | None) -> Path:
     from gym4real.core.datasets import resolve
 
     return resolve(f"{DOMAIN}/{ref}", data_dir)
+
+
+def training_demand(data_dir: str | Path | None) -> tuple[Path, str]:
+    """The training households' demand file and its source: the real one, else the synthetic stand-in.
+
+    Returns ``(path, "real")`` when ``profiles_train.csv`` is found (and intact), else ``(path, "stand-in")``
+    for the stand-in written by ``gym4real data synthesize microgrid`` (:mod:`gym4real.microgrid.standin`).
+
+    Raises:
+        DataFileError: Neither is found; the message gives both fixes.
+    """
+    from gym4real.core.datasets import find, places
+    from gym4real.microgrid.standin import PATH
+
+    if find(f"{DOMAIN}/{TRAIN_DEMAND}", data_dir) is None:
+        for _, folder in places(data_dir):
+            if (folder / PATH).is_file():
+                return folder / PATH, "stand-in"
+    try:
+        return data_path(TRAIN_DEMAND, data_dir), "real"
+    except DataFileError as exc:
+        msg = (
+            f"{exc}\nThe 370 training households (`profiles_train.csv`) are published upstream but were absent "
+            "from the reference snapshot. Either place the file in a data folder "
+            "(`<GYM4REAL_DATA_DIR>/microgrid/demand/profiles_train.csv`), or write the synthetic stand-in with "
+            "`gym4real data synthesize microgrid` (Richardson load model calibrated to Italian households; "
+            '`pip install richardsonpy` first), or pass `data={"demand": "<path>.csv"}`; preset "default" or '
+            '"test" runs on the 2019 data.'
+        )
+        raise DataFileError(msg) from exc
 
 
 def _read(path: Path, columns: list[str], what: str) -> pd.DataFrame:

@@ -5,7 +5,6 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-import warnings
 from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast
@@ -19,7 +18,7 @@ from gym4real.core.errors import DataFileError
 from gym4real.core.perturbation import check_scales
 from gym4real.microgrid.battery import BatteryParams, BatteryTwin, TwinOptions, load_battery
 from gym4real.microgrid.config import MicrogridConfig
-from gym4real.microgrid.data import TEST_DEMAND, TrainingOnTestDataWarning, World, data_path
+from gym4real.microgrid.data import TRAIN_DEMAND, World, data_path, training_demand
 
 if TYPE_CHECKING:
     from gym4real.microgrid.rendering import MicrogridRenderer
@@ -87,9 +86,11 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
     from it (deficit); the rest is sold at the GME ``bid`` price or bought at the ``ask`` price. Data:
     demand profiles (W), PV (W), prices (EUR/Wh) hourly, ambient temperature (K) daily; train 2015-2018
     with 370 households (preset ``train``), test 2019 with 28 households 370..397 (presets ``default``,
-    ``test``). The training households are not available offline, so the ``default`` preset draws random
-    (training) episodes from the test households; any env doing so warns with
-    :class:`~gym4real.microgrid.data.TrainingOnTestDataWarning`.
+    ``test``). The real training households (``profiles_train.csv``) are not published where we can
+    reach them: without them the ``train`` preset runs on a synthetic stand-in
+    (:mod:`gym4real.microgrid.standin`, written by ``gym4real data synthesize microgrid``), and
+    ``reset``'s ``info["demand_source"]`` says which (``real`` or ``stand-in``). The ``default`` preset
+    draws random episodes from the test households, so that ``make()`` works offline: train on ``train``.
 
     ## Action Space
     ``Box(0, 1, (1,), float32)``: the fraction ``a`` of the net power routed to (or taken from) the
@@ -213,16 +214,8 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
         self._upstream = cfg.fidelity == "upstream"
         self._aligned = cfg.fix("data_alignment")
         self._soh_cost = cfg.fix("standard_rainflow")
+        self.demand_source = "real"
         self.world = self._load_world()
-        if cfg.data.demand == TEST_DEMAND and cfg.profile_order == "random":
-            msg = (
-                "MicrogridEnv draws random episodes from the test households (2019, 370..397), the ones the paper "
-                "evaluates on: the training households (profiles_train.csv) are not available offline, so the "
-                "`default` preset trains on the test split and an agent trained on it is not evaluated on "
-                "held-out data. Place profiles_train.csv in <GYM4REAL_DATA_DIR>/microgrid/demand/ and use "
-                'preset="train", or pass training profiles with data={"demand": "<file>.csv"}.'
-            )
-            warnings.warn(msg, TrainingOnTestDataWarning, stacklevel=2)
         b = cfg.battery
         files = (b.pack, b.electrical, b.thermal, b.aging, b.tables_dir)
         self.battery_params = _battery(cfg.data_dir, files)
@@ -282,18 +275,11 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
             if ref is None:  # the constant of `data.dummy`
                 paths.append(None)
                 continue
-            try:
-                paths.append(data_path(ref, cfg.data_dir))
-            except DataFileError as exc:
-                if ref == "demand/train":
-                    msg = (
-                        f"{exc}\nThe 370 training households (`profiles_train.csv`) are published upstream but "
-                        "were absent from the reference snapshot. Place the file in a data folder "
-                        "(`<GYM4REAL_DATA_DIR>/microgrid/demand/profiles_train.csv`) or pass "
-                        '`data={"demand": "<path>.csv"}`; preset "default" or "test" runs on the 2019 data.'
-                    )
-                    raise DataFileError(msg) from exc
-                raise
+            if ref == TRAIN_DEMAND:
+                path, self.demand_source = training_demand(cfg.data_dir)
+                paths.append(path)
+                continue
+            paths.append(data_path(ref, cfg.data_dir))
         dummy = (d.dummy.generation, d.dummy.ask, d.dummy.bid, d.dummy.temp_amb)
         return _world(tuple(paths), d.timestep, d.temp_timestep, dummy)  # type: ignore[arg-type]
 
@@ -455,6 +441,7 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
             "reward_components": zeros,
             "pure_components": dict(zeros),
             "cost": 0.0,
+            "demand_source": self.demand_source,
         }
         return self._obs(), info
 
