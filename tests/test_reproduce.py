@@ -40,23 +40,32 @@ def test_reproduce_all_quick_writes_the_page_and_reuses_finished_runs(tmp_path: 
     args = ("--all", "--budget", "quick", "--seeds", "1", "--out", str(out), "--page", str(page), "--quiet")
     first = _cli(*args)
     assert first.returncode == 0, first.stderr
-    folder = out / "trading-v0" / "quick"
-    runs = sorted(folder.glob("runs/*/seed*/run.json"))
+    folder = out / "trading-v0-quick"
+    runs = sorted((out / "trading-v0" / "quick").glob("runs/*/seed*/run.json"))
     assert [p.parent.parent.name for p in runs] == ["dqn", "ppo"]
     claims = json.loads((out / "claims.json").read_text())
     assert len(claims) == 4 and {c["verdict"] for c in claims} <= VERDICTS
     for claim in claims:
+        assert claim["budget"] == "quick" and claim["rule"]
         for comp in claim["comparisons"]:
-            low, high = comp["ci95"]
-            assert low <= comp["difference"] <= high
+            assert comp["low"] <= comp["estimate"] <= comp["high"] and comp["rule"]
     summary = pd.read_csv(folder / "summary.csv").set_index("policy")
-    assert summary.loc[["dqn", "ppo"], "seeds"].tolist() == [1, 1]
-    assert (summary.loc["dqn", "env_steps"] > 0) and summary["episodes"].nunique() == 1
+    assert summary.loc[["dqn", "ppo"], "seeds"].tolist() == [1, 1] and summary["episodes"].nunique() == 1
+    episodes = pd.read_csv(folder / "episodes.csv")
+    assert list(episodes.columns[:5]) == ["policy", "seed", "episode", "objective", "return"]
+    assert {"pnl", "fees"} <= set(episodes.columns) and episodes.loc[episodes["policy"] == "flat", "seed"].isna().all()
+    assert np.allclose(episodes["objective"], episodes["pnl"] + episodes["fees"])
+    runs_csv = pd.read_csv(folder / "runs.csv")
+    assert runs_csv["algo"].tolist() == ["dqn", "ppo"] and (runs_csv["env_steps"] > 0).all()
+    assert json.loads(runs_csv["settings"][0])["algo"] == "dqn"
+    manifest = json.loads((page / "manifest.json").read_text())
+    assert manifest["sections"] == {"trading-v0-quick": manifest["code_version"]} and "numpy" in manifest["versions"]
     text = (page / "index.md").read_text()
-    assert "`gym4real/trading-v0`, budget `quick`" in text
-    for link in ("cumulative_reward.png", "returns_boxplot.png", "learning_curves.png"):
-        assert f"figures/trading-v0-quick/{link}" in text
-        assert (page / "figures" / "trading-v0-quick" / link).read_bytes()[:4] == b"\x89PNG"
+    assert "`gym4real/trading-v0`, budget `quick`: pipeline check, not a verdict" in text
+    assert str(tmp_path) not in text  # no machine path: the command shows OUT
+    for link in ("cumulative_reward.png", "returns_boxplot.png", "learning_curves.png", "performance_profile.png"):
+        assert f"](trading-v0-quick/{link})" in text
+        assert (page / "trading-v0-quick" / link).read_bytes()[:4] == b"\x89PNG"
     curves = pd.read_csv(folder / "learning_curves.csv")
     assert set(curves["algo"]) == {"dqn", "ppo"} and (curves["low"] <= curves["high"]).all()
 
@@ -71,12 +80,12 @@ def test_an_env_that_cannot_run_is_reported_and_named_on_the_page(tmp_path: Path
     if "gym4real/microgrid-v0" not in gym4real.list_envs():
         pytest.skip("microgrid not installed")
     text = reproduce(["gym4real/microgrid-v0"], budget="paper", out=tmp_path)
-    error = (tmp_path / "microgrid-v0" / "paper" / "error.txt").read_text()
+    error = (tmp_path / "microgrid-v0-paper" / "error.txt").read_text()
     assert "not run" in text and "demand/train" in error
     page = (tmp_path / "results.md").read_text()
     assert "`gym4real/microgrid-v0`, budget `paper`: not run" in page
     assert "gym4real reproduce gym4real/microgrid-v0 --budget paper" in page
-    assert not (tmp_path / "figures" / "microgrid-v0-paper").exists()  # no empty figure folder for it
+    assert str(tmp_path) not in page and not list((tmp_path / "microgrid-v0-paper").glob("*.png"))
 
 
 def test_the_plan_uses_the_papers_seeds_and_stand_in_presets(tmp_path: Path) -> None:

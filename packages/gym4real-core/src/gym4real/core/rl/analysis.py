@@ -134,6 +134,7 @@ def profile_figure(episodes: pd.DataFrame, path: Path, title: str) -> None:
     from gym4real.core.plots import LINESTYLES, MARKERS
 
     scores, trained = score_matrices(episodes)
+    same = identical_to(scores)
     every = np.concatenate([m.ravel() for m in scores.values()])
     tau = np.linspace(every.min(), every.max(), PROFILE_POINTS)
     fig, ax = plt.subplots(figsize=(8.5, 4.2))
@@ -143,7 +144,7 @@ def profile_figure(episodes: pd.DataFrame, path: Path, title: str) -> None:
             tau,
             point,
             where="post",
-            label=name,
+            label=f"{name} (identical to {same[name]})" if name in same else name,
             linestyle=LINESTYLES[i % len(LINESTYLES)],
             marker=MARKERS[i % len(MARKERS)],
             markersize=4,

@@ -67,7 +67,7 @@ def _duration(seconds: float) -> str:
 
 def no_paths(text: str) -> str:
     """``text`` without machine paths: an absolute path is shown by its last component."""
-    return re.sub(r"(?<![\w.:])(?:~|/)(?:[\w.@+-]+/)+(?=[\w.@+-])", "", text)
+    return re.sub(r"(?<![\w.:/])(?:~/(?:[\w.@+-]+/)*|/(?:[\w.@+-]+/)+)(?=[\w.@+-])", "", text)
 
 
 def _has_results(folder: Path) -> bool:
