@@ -62,7 +62,15 @@ def _results_folder(out: Path, budget: str, version: str = "v1.0-3-gabc1234") ->
     ]
     for seed, centre in ((0, 150.0), (1, 60.0), (2, 158.0)):
         frame += [
-            {"policy": "dqn", "seed": seed, "episode": i, "objective": v, "return": v, "dsr": v + 50.0, "overflow": -50.0}
+            {
+                "policy": "dqn",
+                "seed": seed,
+                "episode": i,
+                "objective": v,
+                "return": v,
+                "dsr": v + 50.0,
+                "overflow": -50.0,
+            }
             for i, v in enumerate(rng.normal(centre, 3, 20))
         ]
     episodes = pd.DataFrame(frame)
@@ -70,9 +78,22 @@ def _results_folder(out: Path, budget: str, version: str = "v1.0-3-gabc1234") ->
     episodes.to_csv(folder / "episodes.csv", index=False)
     pd.DataFrame(
         [
-            {"algo": "dqn", "seed": s, "preset": "paper", "total_timesteps": 1000, "episodes": None, "env_steps": 1000,
-             "eval_steps": 100, "wall_s": 10.0, "env_steps_per_s": 110.0, "learning_rate": "0.0001",
-             "selected_unit": "timesteps", "selected_at": 500 + s, "selected_validation_return": 1.0, "settings": "{}"}
+            {
+                "algo": "dqn",
+                "seed": s,
+                "preset": "paper",
+                "total_timesteps": 1000,
+                "episodes": None,
+                "env_steps": 1000,
+                "eval_steps": 100,
+                "wall_s": 10.0,
+                "env_steps_per_s": 110.0,
+                "learning_rate": "0.0001",
+                "selected_unit": "timesteps",
+                "selected_at": 500 + s,
+                "selected_validation_return": 1.0,
+                "settings": "{}",
+            }
             for s in (0, 1, 2)
         ]
     ).to_csv(folder / "runs.csv", index=False)
@@ -159,3 +180,16 @@ def test_the_page_prints_no_machine_path(text: str, shown: str) -> None:
     from gym4real.core.rl.results_page import no_paths
 
     assert no_paths(text).startswith(shown)
+
+
+def test_the_readme_and_the_docs_cite_the_paper_and_this_suites_version() -> None:
+    import tomllib
+
+    version = tomllib.loads((ROOT / "packages" / "gym4real-core" / "pyproject.toml").read_text())["project"]["version"]
+    paper = ROOT.parent / "shared" / "paper" / "gym4real-paper.tex"
+    for doc in (ROOT / "README.md", ROOT / "docs" / "index.md"):
+        text = doc.read_text(encoding="utf-8")
+        assert "## How to cite" in text and f"version = {{{version}}}" in text, doc
+        assert "Real-World Reinforcement Learning}" in text and "Salaorni, Davide" in text, doc
+    if paper.exists():  # the title cited is the paper's
+        assert "Gym4ReaL: A Suite for Benchmarking\\\\Real-World Reinforcement Learning" in paper.read_text()

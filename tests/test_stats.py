@@ -98,7 +98,9 @@ def test_probability_of_improvement_is_the_mann_whitney_average_over_episodes() 
     b = rng.integers(0, 4, size=(2, 5)).astype(float)
     brute = np.mean(
         [
-            np.mean([1.0 if a[i, j] > b[k, j] else 0.5 if a[i, j] == b[k, j] else 0.0 for i in range(3) for k in range(2)])
+            np.mean(
+                [1.0 if a[i, j] > b[k, j] else 0.5 if a[i, j] == b[k, j] else 0.0 for i in range(3) for k in range(2)]
+            )
             for j in range(5)
         ]
     )
@@ -179,7 +181,9 @@ def test_consistently_needs_every_seed_above_the_baseline() -> None:
     failed = rng.normal(60, 1, size=(1, 40))  # one seed never learned: IQM 60 against a baseline of 80
     scores = {"q": np.vstack([good, failed]), "base": rng.normal(80, 1, size=(1, 40))}
     plain = check_claim(Claim("Q beats base", "q", "above", ("base",)), scores, {"q"})
-    consistent = check_claim(Claim("Q consistently beats base", "q", "above", ("base",), consistently=True), scores, {"q"})
+    consistent = check_claim(
+        Claim("Q consistently beats base", "q", "above", ("base",), consistently=True), scores, {"q"}
+    )
     assert plain["verdict"] == "holds"  # the pooled interval hides the failed seed
     assert (consistent["verdict"], consistent["rule"]) == ("does not hold", "every seed")
     assert consistent["comparisons"][0]["seeds"]["seed_iqms"][-1] < 80

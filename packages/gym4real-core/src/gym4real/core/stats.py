@@ -243,7 +243,7 @@ def _improvement(x: np.ndarray, y: np.ndarray) -> np.ndarray:
 def probability_of_improvement(
     a: np.ndarray, b: np.ndarray, a_trained: bool, b_trained: bool, seed: int = 0, level: float = 0.95
 ) -> tuple[float, float, float]:
-    """rliable's probability of improvement P(a > b) with each test episode as a task, and its interval.
+    """The probability of improvement P(a > b) of rliable, with each test episode as a task, and its interval.
 
     For score matrices ``a`` (n runs) and ``b`` (m runs) on the same E test episodes::
 

@@ -69,9 +69,7 @@ def _seed_rule(claim: Claim, a: np.ndarray, b: np.ndarray) -> dict[str, Any]:
     return {"seed_iqms": [float(v) for v in seed_iqms], "other_iqm": other, "every_seed": bool(np.all(side))}
 
 
-def compare(
-    claim: Claim, other: str, scores: dict[str, np.ndarray], trained: set[str], level: float
-) -> dict[str, Any]:
+def compare(claim: Claim, other: str, scores: dict[str, np.ndarray], trained: set[str], level: float) -> dict[str, Any]:
     """One comparison of a claim: the difference ``claim.policy - other``, its interval and verdict."""
     a, b = scores[claim.policy], scores[other]
     statistic = statistic_of(claim)

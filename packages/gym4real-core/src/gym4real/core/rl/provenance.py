@@ -78,7 +78,7 @@ def data_files(env_id: str) -> list[dict[str, str]]:
 
 
 def learning_rate_words(rate: float | dict[str, Any]) -> str:
-    """A learning rate or schedule in words: ``0.0003``, ``cosine(5e-05->0)``, ``kl_adaptive(8e-06, kl_threshold=0.008)``.
+    """A learning rate or schedule in words (``cosine(5e-05->0)``, ``kl_adaptive(8e-06, kl_threshold=0.008)``).
 
     Args:
         rate: A constant rate, or a schedule ``{"schedule": name, "initial": x, ["final": y,] ...}``.

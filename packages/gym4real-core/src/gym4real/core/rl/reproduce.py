@@ -133,7 +133,11 @@ def _curves(runs: list[TrainingRun], folder: Path) -> None:
         rows = np.full((len(curves), len(x)), np.nan)
         for k, c in enumerate(curves):
             rows[k, np.searchsorted(x, c[unit])] = c["mean_return"]
-        style = {"linestyle": LINESTYLES[i % len(LINESTYLES)], "marker": MARKERS[i % len(MARKERS)], "markersize": 4}
+        style: dict[str, Any] = {
+            "linestyle": LINESTYLES[i % len(LINESTYLES)],
+            "marker": MARKERS[i % len(MARKERS)],
+            "markersize": 4,
+        }
         if len(curves) > 1:
             mean, low, high = stats.t_band(rows)
             count = np.sum(~np.isnan(rows), axis=0)
@@ -141,12 +145,19 @@ def _curves(runs: list[TrainingRun], folder: Path) -> None:
             label = f"{algo}: mean of {len(curves)} seeds, 95 % t-band (where 2 or more seeds)"
             (line,) = ax.plot(x, mean, label=label, **style)
             for k, c in enumerate(curves):
-                ax.plot(c[unit], c["mean_return"], color=line.get_color(), linewidth=0.7, alpha=0.45,
-                        label=f"{algo}: each seed" if k == 0 else None)
+                ax.plot(
+                    c[unit],
+                    c["mean_return"],
+                    color=line.get_color(),
+                    linewidth=0.7,
+                    alpha=0.45,
+                    label=f"{algo}: each seed" if k == 0 else None,
+                )
         else:
             mean, low, high = rows[0], curves[0]["ci95_low"].to_numpy(), curves[0]["ci95_high"].to_numpy()
-            (line,) = ax.plot(x, mean, label=f"{algo}: seed {mine[0].seed}, 95 % band over validation episodes",
-                              **style)
+            (line,) = ax.plot(
+                x, mean, label=f"{algo}: seed {mine[0].seed}, 95 % band over validation episodes", **style
+            )
             count = np.ones(len(x), dtype=int)
         ax.fill_between(x, low, high, color=line.get_color(), alpha=0.2, linewidth=0)
         frames.append(pd.DataFrame({"algo": algo, unit: x, "seeds": count, "mean": mean, "low": low, "high": high}))

@@ -140,9 +140,7 @@ def _verdict(verdict: str, budget: str, bold: bool = True) -> str:
 
 def _comparison(c: dict[str, Any], comp: dict[str, Any], scale: float) -> str:
     stat = "IQM" if comp["statistic"] == "iqm" else comp["statistic"]
-    text = (
-        f"{stat} {comp['a']} - {comp['b']}: {_fmt(comp['estimate'], scale)} {_ci(comp['low'], comp['high'], scale)}"
-    )
+    text = f"{stat} {comp['a']} - {comp['b']}: {_fmt(comp['estimate'], scale)} {_ci(comp['low'], comp['high'], scale)}"
     if c.get("margin") is not None:
         text += f" (margin {_fmt(float(c['margin']))}, detectable ±{_fmt(comp['detectable'], scale)})"
     return text
@@ -202,8 +200,8 @@ def _section(folder: Path, section: Section | None, version: str) -> list[str]:
         if isinstance(row.get("identical_to"), str) and row["identical_to"]:
             notes.append(
                 f"`{row['policy']}` is identical to `{row['identical_to']}` in every test episode: the two "
-                "policies take the same score in each (to 1e-6 of the scores' magnitude), so every statistic of theirs is "
-                "equal."
+                "policies take the same score in each (to 1e-6 of the scores' magnitude), so every statistic of "
+                "theirs is equal."
             )
     lines += ["", *(f"Note: {n}" for n in notes), *([""] if notes else [])]
     seeds = analysis.per_seed(section.episodes, runs)
@@ -264,8 +262,7 @@ def claims_table(claims: list[dict[str, Any]], scales: dict[str, float] | None =
         comp = next((x for x in c["comparisons"] if x["b"] == c.get("deciding")), None)
         where = _comparison(c, comp, scale) if comp else "-"
         lines.append(
-            f"| `{env}` | {c['budget']} | {c['text']} | {_verdict(c['verdict'], c['budget'])} | {c['rule']} "
-            f"| {where} |"
+            f"| `{env}` | {c['budget']} | {c['text']} | {_verdict(c['verdict'], c['budget'])} | {c['rule']} | {where} |"
         )
     return "\n".join(lines) + "\n"
 
