@@ -116,3 +116,30 @@ def test_pooling_an_algorithms_seeds_keeps_the_results_step_unit_and_objective()
     assert out.returns == {"max": [1.0, 2.0], "ppo": [3.0, 4.0, 5.0, 6.0]}
     assert out.components["ppo"] == {"deficit": [-1.0, -2.0, -1.0, -2.0]} and len(out.rewards["ppo"]) == 4
     assert len(out.episodes) == 4
+
+
+def test_the_learning_curve_band_stops_where_fewer_than_two_seeds_remain(tmp_path: Path) -> None:
+    from gym4real.core.rl.reproduce import _curves
+    from gym4real.core.rl.train import TrainingRun
+
+    runs = []
+    for seed, length in ((0, 4), (1, 2)):  # seed 1 stopped early
+        folder = tmp_path / f"seed{seed}"
+        folder.mkdir()
+        values = np.arange(length, dtype=float) * (seed + 1)
+        pd.DataFrame(
+            {"episodes": 1000 * (np.arange(length) + 1), "mean_return": values, "ci95_low": values, "ci95_high": values}
+        ).to_csv(folder / "curve.csv", index=False)
+        runs.append(
+            TrainingRun(
+                "gym4real/elevator-v0", "qlearning", "paper", seed, folder / "q.npz", folder / "curve.csv", 1.0, 1, 1
+            )
+        )
+    _curves(runs, tmp_path)
+    curve = pd.read_csv(tmp_path / "learning_curves.csv")
+    assert curve["seeds"].tolist() == [2, 2, 1, 1]
+    two = curve[curve["seeds"] == 2]
+    assert (two["low"] <= two["mean"]).all() and (two["mean"] <= two["high"]).all()
+    assert two["mean"].tolist() == [0.0, 1.5]
+    assert curve.loc[curve["seeds"] == 1, ["mean", "low", "high"]].isna().all().all()  # no one-seed "band"
+    assert (tmp_path / "learning_curves.png").read_bytes()[:4] == b"\x89PNG"

@@ -121,7 +121,7 @@ def _curves(runs: list[TrainingRun], folder: Path) -> None:
     from gym4real.core.plots import LINESTYLES, MARKERS
 
     frames = []
-    fig, ax = plt.subplots(figsize=(8.5, 4.2))
+    fig, ax = plt.subplots(figsize=(9.5, 4.2))
     unit = "timesteps"
     for i, algo in enumerate(sorted({r.algo for r in runs})):
         mine = [r for r in runs if r.algo == algo and r.curve_csv.exists()]
@@ -142,7 +142,7 @@ def _curves(runs: list[TrainingRun], folder: Path) -> None:
             mean, low, high = stats.t_band(rows)
             count = np.sum(~np.isnan(rows), axis=0)
             mean = np.where(count > 1, mean, np.nan)
-            label = f"{algo}: mean of {len(curves)} seeds, 95 % t-band (where 2 or more seeds)"
+            label = f"{algo}: mean of {len(curves)} seeds (95 % t-band)"
             (line,) = ax.plot(x, mean, label=label, **style)
             for k, c in enumerate(curves):
                 ax.plot(
@@ -156,7 +156,7 @@ def _curves(runs: list[TrainingRun], folder: Path) -> None:
         else:
             mean, low, high = rows[0], curves[0]["ci95_low"].to_numpy(), curves[0]["ci95_high"].to_numpy()
             (line,) = ax.plot(
-                x, mean, label=f"{algo}: seed {mine[0].seed}, 95 % band over validation episodes", **style
+                x, mean, label=f"{algo}: seed {mine[0].seed} (95 % band over episodes)", **style
             )
             count = np.ones(len(x), dtype=int)
         ax.fill_between(x, low, high, color=line.get_color(), alpha=0.2, linewidth=0)
