@@ -140,14 +140,6 @@ def test_bad_score_matrices_are_refused_with_the_fix() -> None:
         stats.difference_ci(np.ones((2, 3)), np.ones((1, 4)), True, False)
 
 
-def test_the_t_band_is_drawn_only_where_two_seeds_have_a_value() -> None:
-    rows = np.array([[1.0, 2.0, 3.0], [3.0, 4.0, np.nan]])
-    mean, low, high = stats.t_band(rows)
-    assert np.isnan(low[2]) and np.isnan(high[2]) and mean[2] == 3.0
-    half = sps.t.ppf(0.975, 1) * np.std([1.0, 3.0], ddof=1) / np.sqrt(2)
-    assert (low[0], high[0]) == pytest.approx((2.0 - half, 2.0 + half))
-
-
 @pytest.mark.parametrize(
     ("low", "high", "expected"),
     [
