@@ -155,9 +155,7 @@ def _curves(runs: list[TrainingRun], folder: Path) -> None:
                 )
         else:
             mean, low, high = rows[0], curves[0]["ci95_low"].to_numpy(), curves[0]["ci95_high"].to_numpy()
-            (line,) = ax.plot(
-                x, mean, label=f"{algo}: seed {mine[0].seed} (95 % band over episodes)", **style
-            )
+            (line,) = ax.plot(x, mean, label=f"{algo}: seed {mine[0].seed} (95 % band over episodes)", **style)
             count = np.ones(len(x), dtype=int)
         ax.fill_between(x, low, high, color=line.get_color(), alpha=0.2, linewidth=0)
         frames.append(pd.DataFrame({"algo": algo, unit: x, "seeds": count, "mean": mean, "low": low, "high": high}))
@@ -271,7 +269,11 @@ def reproduce(
         except Exception as exc:  # one env's failure (missing data, a bug) must not stop the others
             errors[env_id] = describe_error(exc)
         else:
-            lines += [f"== {env_id} ({budget})", report.table.to_string(float_format=lambda v: f"{v:.4g}"), ""]
+            lines += [
+                f"== {env_id} ({budget})",
+                report.table.fillna("").to_string(float_format=lambda v: f"{v:.4g}"),
+                "",
+            ]
             for c in report.claims:
                 lines.append(f"claim: {c['text']} -> {c['verdict']}")
             lines.append("")
