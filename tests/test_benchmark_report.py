@@ -96,3 +96,15 @@ def test_figures_name_the_step_unit_and_keep_the_legend_off_the_plot(tmp_path: P
     assert legend.x0 >= ax.get_window_extent().x1  # beside the axes, over no band
     assert drawn["returns_boxplot.png"].axes[0].get_xlabel() == "policy"
     assert re.fullmatch(r"\w+", json.loads((tmp_path / "results.json").read_text())["step_unit"])
+
+
+def test_the_per_step_objective_adds_up_to_the_episodes_objective_and_is_what_reproduce_plots(tmp_path: Path) -> None:
+    from gym4real.core.benchmark import benchmark
+
+    result = benchmark("gym4real/dam-v0", ["max"], episodes=1)
+    steps = result.objective_rewards["max"][0]
+    assert len(steps) == len(result.rewards["max"][0])
+    assert np.isclose(steps.sum(), result.objective_values("max")[0])
+    assert not np.isclose(steps.sum(), result.returns["max"][0])  # dam's reward has more than the objective
+    curves = plots.mean_curves(result, objective=True)
+    assert np.isclose(curves["max"][0][-1], result.objective_values("max")[0])

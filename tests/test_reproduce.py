@@ -40,23 +40,32 @@ def test_reproduce_all_quick_writes_the_page_and_reuses_finished_runs(tmp_path: 
     args = ("--all", "--budget", "quick", "--seeds", "1", "--out", str(out), "--page", str(page), "--quiet")
     first = _cli(*args)
     assert first.returncode == 0, first.stderr
-    folder = out / "trading-v0" / "quick"
-    runs = sorted(folder.glob("runs/*/seed*/run.json"))
+    folder = out / "trading-v0-quick"
+    runs = sorted((out / "trading-v0" / "quick").glob("runs/*/seed*/run.json"))
     assert [p.parent.parent.name for p in runs] == ["dqn", "ppo"]
     claims = json.loads((out / "claims.json").read_text())
     assert len(claims) == 4 and {c["verdict"] for c in claims} <= VERDICTS
     for claim in claims:
+        assert claim["budget"] == "quick" and claim["rule"]
         for comp in claim["comparisons"]:
-            low, high = comp["ci95"]
-            assert low <= comp["difference"] <= high
+            assert comp["low"] <= comp["estimate"] <= comp["high"] and comp["rule"]
     summary = pd.read_csv(folder / "summary.csv").set_index("policy")
-    assert summary.loc[["dqn", "ppo"], "seeds"].tolist() == [1, 1]
-    assert (summary.loc["dqn", "env_steps"] > 0) and summary["episodes"].nunique() == 1
+    assert summary.loc[["dqn", "ppo"], "seeds"].tolist() == [1, 1] and summary["episodes"].nunique() == 1
+    episodes = pd.read_csv(folder / "episodes.csv")
+    assert list(episodes.columns[:5]) == ["policy", "seed", "episode", "objective", "return"]
+    assert {"pnl", "fees"} <= set(episodes.columns) and episodes.loc[episodes["policy"] == "flat", "seed"].isna().all()
+    assert np.allclose(episodes["objective"], episodes["pnl"] + episodes["fees"])
+    runs_csv = pd.read_csv(folder / "runs.csv")
+    assert runs_csv["algo"].tolist() == ["dqn", "ppo"] and (runs_csv["env_steps"] > 0).all()
+    assert json.loads(runs_csv["settings"][0])["algo"] == "dqn"
+    manifest = json.loads((page / "manifest.json").read_text())
+    assert manifest["sections"] == {"trading-v0-quick": manifest["code_version"]} and "numpy" in manifest["versions"]
     text = (page / "index.md").read_text()
-    assert "`gym4real/trading-v0`, budget `quick`" in text
-    for link in ("cumulative_reward.png", "returns_boxplot.png", "learning_curves.png"):
-        assert f"figures/trading-v0-quick/{link}" in text
-        assert (page / "figures" / "trading-v0-quick" / link).read_bytes()[:4] == b"\x89PNG"
+    assert "`gym4real/trading-v0`, budget `quick`: pipeline check, not a verdict" in text
+    assert str(tmp_path) not in text  # no machine path: the command shows OUT
+    for link in ("cumulative_reward.png", "returns_boxplot.png", "learning_curves.png", "performance_profile.png"):
+        assert f"](trading-v0-quick/{link})" in text
+        assert (page / "trading-v0-quick" / link).read_bytes()[:4] == b"\x89PNG"
     curves = pd.read_csv(folder / "learning_curves.csv")
     assert set(curves["algo"]) == {"dqn", "ppo"} and (curves["low"] <= curves["high"]).all()
 
@@ -71,12 +80,12 @@ def test_an_env_that_cannot_run_is_reported_and_named_on_the_page(tmp_path: Path
     if "gym4real/microgrid-v0" not in gym4real.list_envs():
         pytest.skip("microgrid not installed")
     text = reproduce(["gym4real/microgrid-v0"], budget="paper", out=tmp_path)
-    error = (tmp_path / "microgrid-v0" / "paper" / "error.txt").read_text()
+    error = (tmp_path / "microgrid-v0-paper" / "error.txt").read_text()
     assert "not run" in text and "demand/train" in error
     page = (tmp_path / "results.md").read_text()
     assert "`gym4real/microgrid-v0`, budget `paper`: not run" in page
     assert "gym4real reproduce gym4real/microgrid-v0 --budget paper" in page
-    assert not (tmp_path / "figures" / "microgrid-v0-paper").exists()  # no empty figure folder for it
+    assert str(tmp_path) not in page and not list((tmp_path / "microgrid-v0-paper").glob("*.png"))
 
 
 def test_the_plan_uses_the_papers_seeds_and_stand_in_presets(tmp_path: Path) -> None:
@@ -107,3 +116,30 @@ def test_pooling_an_algorithms_seeds_keeps_the_results_step_unit_and_objective()
     assert out.returns == {"max": [1.0, 2.0], "ppo": [3.0, 4.0, 5.0, 6.0]}
     assert out.components["ppo"] == {"deficit": [-1.0, -2.0, -1.0, -2.0]} and len(out.rewards["ppo"]) == 4
     assert len(out.episodes) == 4
+
+
+def test_the_learning_curve_band_stops_where_fewer_than_two_seeds_remain(tmp_path: Path) -> None:
+    from gym4real.core.rl.reproduce import _curves
+    from gym4real.core.rl.train import TrainingRun
+
+    runs = []
+    for seed, length in ((0, 4), (1, 2)):  # seed 1 stopped early
+        folder = tmp_path / f"seed{seed}"
+        folder.mkdir()
+        values = np.arange(length, dtype=float) * (seed + 1)
+        pd.DataFrame(
+            {"episodes": 1000 * (np.arange(length) + 1), "mean_return": values, "ci95_low": values, "ci95_high": values}
+        ).to_csv(folder / "curve.csv", index=False)
+        runs.append(
+            TrainingRun(
+                "gym4real/elevator-v0", "qlearning", "paper", seed, folder / "q.npz", folder / "curve.csv", 1.0, 1, 1
+            )
+        )
+    _curves(runs, tmp_path)
+    curve = pd.read_csv(tmp_path / "learning_curves.csv")
+    assert curve["seeds"].tolist() == [2, 2, 1, 1]
+    two = curve[curve["seeds"] == 2]
+    assert (two["low"] <= two["mean"]).all() and (two["mean"] <= two["high"]).all()
+    assert two["mean"].tolist() == [0.0, 1.5]
+    assert curve.loc[curve["seeds"] == 1, ["mean", "low", "high"]].isna().all().all()  # no one-seed "band"
+    assert (tmp_path / "learning_curves.png").read_bytes()[:4] == b"\x89PNG"

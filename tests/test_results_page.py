@@ -2,10 +2,19 @@
 
 from __future__ import annotations
 
+import json
 import re
 from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from gym4real.core import stats
+from gym4real.core.rl.analysis import analyse, score_matrices
+from gym4real.core.rl.results_page import write_page
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -22,7 +31,7 @@ def test_the_readme_verdicts_are_the_results_pages() -> None:
 
 def test_every_figure_the_results_page_shows_is_committed() -> None:
     page = ROOT / "docs" / "results"
-    links = re.findall(r"\]\((figures/[^)]+\.png)\)", (page / "index.md").read_text(encoding="utf-8"))
+    links = re.findall(r"\]\(([^)]+\.png)\)", (page / "index.md").read_text(encoding="utf-8"))
     assert links
     for link in links:
         assert (page / link).read_bytes()[:4] == b"\x89PNG", link
@@ -37,3 +46,150 @@ def test_each_env_page_shows_its_verdicts_from_the_results_page(load_script: Cal
         name = env_id.split("/")[-1]
         assert _verdict_rows("\n".join(section)) == [row for row in page if row.startswith(f"| `{name}` |")]
     assert gen_pages._reproduction("gym4real/no-such-v0") == []
+
+
+def _results_folder(out: Path, budget: str, version: str = "v1.0-3-gabc1234") -> Path:
+    """A wds results folder as ``reproduce`` writes it, with made-up scores: p79 is p78, dqn seed 1 failed."""
+    rng = np.random.default_rng(0)
+    folder = out / f"wds-v0-{budget}"
+    folder.mkdir(parents=True)
+    p78 = rng.normal(20, 100, 20)
+    rows = {"random": rng.normal(80, 60, 20), "p78": p78, "p79": p78.copy(), "default": rng.normal(160, 5, 20)}
+    frame = [
+        {"policy": name, "seed": None, "episode": i, "objective": v, "return": v, "dsr": v + 50.0, "overflow": -50.0}
+        for name, values in rows.items()
+        for i, v in enumerate(values)
+    ]
+    for seed, centre in ((0, 150.0), (1, 60.0), (2, 158.0)):
+        frame += [
+            {
+                "policy": "dqn",
+                "seed": seed,
+                "episode": i,
+                "objective": v,
+                "return": v,
+                "dsr": v + 50.0,
+                "overflow": -50.0,
+            }
+            for i, v in enumerate(rng.normal(centre, 3, 20))
+        ]
+    episodes = pd.DataFrame(frame)
+    episodes["seed"] = episodes["seed"].astype("Int64")
+    episodes.to_csv(folder / "episodes.csv", index=False)
+    pd.DataFrame(
+        [
+            {
+                "algo": "dqn",
+                "seed": s,
+                "preset": "paper",
+                "total_timesteps": 1000,
+                "episodes": None,
+                "env_steps": 1000,
+                "eval_steps": 100,
+                "wall_s": 10.0,
+                "env_steps_per_s": 110.0,
+                "learning_rate": "0.0001",
+                "selected_unit": "timesteps",
+                "selected_at": 500 + s,
+                "selected_validation_return": 1.0,
+                "settings": "{}",
+            }
+            for s in (0, 1, 2)
+        ]
+    ).to_csv(folder / "runs.csv", index=False)
+    report = {
+        "env_id": "gym4real/wds-v0",
+        "budget": budget,
+        "command": f"gym4real reproduce gym4real/wds-v0 --budget {budget} --seeds 3 --out results/{budget}",
+        "objective": ["dsr", "overflow"],
+        "protocol": "test profiles 0..19",
+        "step_unit": "hour",
+        "seeds": [0, 1, 2],
+        "presets": {"dqn": "paper"},
+        "test_wall_time_s": 4.0,
+        "code_version": version,
+        "versions": {"gym4real-core": "0.2.0"},
+        "platform": "Linux",
+        "data_files": [{"name": "wds/network", "path": "wds/net.inp", "sha256": "0" * 64, "found": "user cache"}],
+    }
+    (folder / "report.json").write_text(json.dumps(report))
+    analyse(folder, "gym4real/wds-v0", budget)
+    return folder
+
+
+def test_every_number_of_the_page_is_recomputed_from_episodes_csv(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    folder = _results_folder(out, "paper")
+    text = write_page(out, tmp_path / "page").read_text()
+    scores, trained = score_matrices(pd.read_csv(folder / "episodes.csv"))
+    assert trained == {"dqn"} and scores["dqn"].shape == (3, 20)
+    scale = max(float(np.abs(m).max()) for m in scores.values())
+    for name, matrix in scores.items():
+        iqm, low, high = stats.iqm_ci(matrix, name in trained)
+        assert f"| {name} | " in text and f"| {iqm:.4g} | [{low:.4g}, {high:.4g}] |" in text, name
+    seed_iqms, _ = stats.per_seed(scores["dqn"])
+    for seed, value in enumerate(seed_iqms):  # the failed seed shows, with its checkpoint
+        assert f"| dqn | {seed} | {value:.4g} |" in text and f"{500 + seed:,} timesteps" in text
+    for base in ("random", "p78", "p79", "default"):
+        p, low, high = stats.probability_of_improvement(scores["dqn"], scores[base], True, False)
+        assert f"| dqn | {base} | {p:.3f} [{low:.3f}, {high:.3f}] |" in text
+    diff, low, high = stats.difference_ci(scores["dqn"], scores["default"], True, False, level=1 - 0.05 / 4)
+    assert f"IQM dqn - default: {stats.snap(diff, scale):.4g} [{low:.4g}, {high:.4g}]" in text
+    assert "`p79` is identical to `p78` in every test episode" in text
+    assert "Code version `v1.0-3-gabc1234`" in text and "Flagged" not in text
+    assert "gym4real reproduce gym4real/wds-v0 --budget paper --seeds 3 --out results/paper" in text
+    claims = json.loads((tmp_path / "page" / "claims.json").read_text())
+    spread = next(c for c in claims if c["relation"] == "less_variable")
+    p79 = next(c for c in spread["comparisons"] if c["b"] == "p79")
+    assert {"a", "b", "statistic", "estimate", "low", "high", "verdict", "rule"} <= set(p79)
+    manifest = json.loads((tmp_path / "page" / "manifest.json").read_text())
+    assert manifest["code_version"] == "v1.0-3-gabc1234" and manifest["data_files"]["wds-v0-paper"][0]["path"]
+
+
+def test_the_page_folder_alone_regenerates_the_page(tmp_path: Path) -> None:
+    out, page = tmp_path / "out", tmp_path / "page"
+    _results_folder(out, "paper")
+    first = write_page(out, page).read_text()
+    assert "](wds-v0-paper/performance_profile.png)" in first
+    assert (page / "wds-v0-paper" / "episodes.csv").exists() and (page / "wds-v0-paper" / "runs.csv").exists()
+    assert write_page(page, page).read_text() == first
+
+
+def test_quick_verdicts_are_pipeline_checks_and_other_versions_are_flagged(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    _results_folder(out, "paper")
+    # a second section (another env's folder name), from another code version
+    _results_folder(tmp_path / "other", "quick", version="v0.9-dirty").rename(out / "zzz-v0-quick")
+    text = write_page(out).read_text()
+    quick = [line for line in text.splitlines() if line.startswith("| `wds-v0` | quick |")]
+    paper = [line for line in text.splitlines() if line.startswith("| `wds-v0` | paper |")]
+    assert quick and all("pipeline check, not a verdict" in line and "**" not in line for line in quick)
+    assert paper and all("**" in line for line in paper)
+    assert "Flagged: from code version `v0.9-dirty`, not the page's `v1.0-3-gabc1234`" in text
+
+
+@pytest.mark.parametrize(
+    ("text", "shown"),
+    [
+        ("missing in `/work/shared/data/microgrid/train.csv` (GYM4REAL_DATA_DIR)", "missing in `train.csv`"),
+        ("cache ~/.cache/gym4real/dam/MEF.csv", "cache MEF.csv"),
+        ("see https://example.org/a/b.csv", "see https://example.org/a/b.csv"),
+    ],
+)
+def test_the_page_prints_no_machine_path(text: str, shown: str) -> None:
+    from gym4real.core.rl.results_page import no_paths
+
+    assert no_paths(text).startswith(shown)
+
+
+def test_the_readme_and_the_docs_cite_the_paper_and_this_suites_version() -> None:
+    import tomllib
+
+    version = tomllib.loads((ROOT / "packages" / "gym4real-core" / "pyproject.toml").read_text())["project"]["version"]
+    paper = ROOT.parent / "shared" / "paper" / "gym4real-paper.tex"
+    for doc in (ROOT / "README.md", ROOT / "docs" / "index.md"):
+        text = doc.read_text(encoding="utf-8")
+        assert "## How to cite" in text and f"version = {{{version}}}" in text, doc
+        assert "Real-World Reinforcement Learning}" in text and "Salaorni, Davide" in text, doc
+    if paper.exists():  # the title cited is the paper's
+        assert "Gym4ReaL: A Suite for Benchmarking\\\\Real-World Reinforcement Learning" in paper.read_text()

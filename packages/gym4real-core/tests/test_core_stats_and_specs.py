@@ -55,20 +55,20 @@ def test_difference_ci_pairs_the_test_episodes() -> None:
     rng = np.random.default_rng(0)
     episodes = rng.normal(0, 10, size=20)  # a spread over episodes that both policies share
     better = episodes + 1.0 + rng.normal(0, 0.05, size=(3, 20))  # three seeds, one unit above everywhere
-    diff, low, high = stats.difference_ci(better, episodes[None, :])
+    diff, low, high = stats.difference_ci(better, episodes[None, :], True, False)
     assert 0 < low <= diff <= high and diff == pytest.approx(1.0, abs=0.1)
     assert high - low < 0.5  # unpaired, the shared spread of 10 would swamp the shift
-    assert stats.difference_ci(better, episodes[None, :]) == (diff, low, high)  # seeded
-    with pytest.raises(ValueError, match="different episodes"):
-        stats.difference_ci(better, episodes[None, :10])
+    assert stats.difference_ci(better, episodes[None, :], True, False) == (diff, low, high)  # seeded
+    with pytest.raises(ValueError, match="different test episodes"):
+        stats.difference_ci(better, episodes[None, :10], True, False)
 
 
 def test_iqm_ci_covers_the_iqm_and_narrows_with_more_episodes() -> None:
     rng = np.random.default_rng(1)
     few, many = rng.normal(5, 2, size=(1, 10)), rng.normal(5, 2, size=(1, 400))
-    value, low, high = stats.iqm_ci(few)
+    value, low, high = stats.iqm_ci(few, trained=False)
     assert low <= value <= high
-    _, low2, high2 = stats.iqm_ci(many)
+    _, low2, high2 = stats.iqm_ci(many, trained=False)
     assert low2 < 5 < high2 and high2 - low2 < high - low
 
 
@@ -80,28 +80,32 @@ def test_iqm_ci_covers_the_iqm_and_narrows_with_more_episodes() -> None:
         ("above", (-0.5, 2.0), "inconclusive"),
         ("below", (-2.0, -0.5), "holds"),
         ("less_variable", (0.1, 0.3), "does not hold"),
-        ("not_above", (-0.5, 2.0), "holds"),
+        ("not_above", (-0.5, 2.0), "inconclusive"),  # reaches the margin 1: an advantage that matters is possible
+        ("not_above", (-0.5, 0.9), "holds"),
         ("not_above", (0.5, 2.0), "does not hold"),
     ],
 )
 def test_verdict_reads_the_interval_of_the_difference(relation: str, interval: tuple, expected: str) -> None:
-    assert stats.verdict(relation, *interval) == expected
+    margin = 1.0 if relation == "not_above" else None
+    assert stats.verdict(relation, *interval, margin=margin)[0] == expected
 
 
 def test_a_claim_holds_only_when_every_comparison_holds() -> None:
-    from gym4real.core.rl.reproduce import check_claim
+    from gym4real.core.rl.claims import check_claim
     from gym4real.core.specs import Claim
 
     rng = np.random.default_rng(2)
     base = rng.normal(0, 1, size=(1, 30))
     scores = {"agent": base + 5 + rng.normal(0, 0.1, (2, 30)), "weak": base, "strong": base + 10, "same": base + 5}
-    assert check_claim(Claim("beats weak", "agent", "above", ("weak",)), scores)["verdict"] == "holds"
-    assert check_claim(Claim("beats both", "agent", "above", ("weak", "strong")), scores)["verdict"] == "does not hold"
-    tie = check_claim(Claim("beats same", "agent", "above", ("same",)), scores)
-    assert tie["verdict"] == "inconclusive" and tie["comparisons"][0]["ci95"][0] < 0 < tie["comparisons"][0]["ci95"][1]
-    assert check_claim(Claim("x", "agent", "above", ("missing",)), scores)["verdict"] == "not checked"
+    trained = {"agent"}
+    assert check_claim(Claim("beats weak", "agent", "above", ("weak",)), scores, trained)["verdict"] == "holds"
+    both = check_claim(Claim("beats both", "agent", "above", ("weak", "strong")), scores, trained)
+    assert both["verdict"] == "does not hold" and both["deciding"] == "strong"
+    tie = check_claim(Claim("beats same", "agent", "above", ("same",)), scores, trained)
+    assert tie["verdict"] == "inconclusive" and tie["comparisons"][0]["low"] < 0 < tie["comparisons"][0]["high"]
+    assert check_claim(Claim("x", "agent", "above", ("missing",)), scores, trained)["verdict"] == "not checked"
     steady = {"agent": base * 0.1, "other": base}
-    assert check_claim(Claim("less spread", "agent", "less_variable", ("other",)), steady)["verdict"] == "holds"
+    assert check_claim(Claim("less spread", "agent", "less_variable", ("other",)), steady, set())["verdict"] == "holds"
 
 
 def test_claims_are_checked_records() -> None:
@@ -126,4 +130,4 @@ def test_t_band_is_the_student_interval_of_the_seed_mean_and_none_where_one_seed
     np.testing.assert_allclose(mean, [7 / 3, 3.0, 3.0])
     np.testing.assert_allclose(high[:2] - mean[:2], half)
     np.testing.assert_allclose(mean[:2] - low[:2], half)
-    assert low[2] == high[2] == 3.0
+    assert mean[2] == 3.0 and np.isnan(low[2]) and np.isnan(high[2])  # no band from one seed

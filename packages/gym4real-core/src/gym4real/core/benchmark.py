@@ -76,6 +76,7 @@ class BenchmarkResult:
     returns: dict[str, list[float]] = field(default_factory=dict)
     components: dict[str, dict[str, list[float]]] = field(default_factory=dict)
     rewards: dict[str, list[np.ndarray]] = field(default_factory=dict)
+    objective_rewards: dict[str, list[np.ndarray]] = field(default_factory=dict)  # per step, when objective set
     final_info: dict[str, dict[str, list[float]]] = field(default_factory=dict)
     objective: tuple[str, ...] = ()
     step_unit: str = "step"
@@ -212,8 +213,11 @@ def run_episode(
     options: dict[str, Any] | None,
     final_keys: Sequence[str] = (),
     observer: Callable[[int, float], None] | None = None,
+    objective: Sequence[str] = (),
 ) -> dict[str, Any]:
     """Run one episode; return its per-step rewards, component sums and final ``info`` values.
+
+    With ``objective`` (reward components), ``objective_rewards`` holds their sum at each step.
 
     ``observer(step, return_so_far)``, if given, is called after the reset (step 0) and after each step.
     The reward of a vector-reward env is its ``info["scalar_reward"]``; its entries are the components.
@@ -223,6 +227,7 @@ def run_episode(
         reset(seed)
     obs, info = env.reset(seed=seed, options=options)
     rewards: list[float] = []
+    steps_objective: list[float] = []
     comps: dict[str, float] = {}
     done = False
     total = 0.0
@@ -234,11 +239,19 @@ def run_episode(
         if observer is not None:
             total += rewards[-1]
             observer(len(rewards), total)
-        for key, value in info.get("reward_components", {}).items():
+        step_comps = info.get("reward_components", {})
+        for key, value in step_comps.items():
             comps[key] = comps.get(key, 0.0) + float(value)
+        if objective:
+            steps_objective.append(sum(float(step_comps.get(key, 0.0)) for key in objective))
         done = terminated or truncated
     final = {k: float(info[k]) for k in final_keys if k in info}
-    return {"rewards": np.asarray(rewards), "components": comps, "final": final}
+    return {
+        "rewards": np.asarray(rewards),
+        "objective_rewards": np.asarray(steps_objective),
+        "components": comps,
+        "final": final,
+    }
 
 
 def benchmark(
@@ -295,12 +308,16 @@ def benchmark(
                 policy = make_policy(env_id, ref, env)
                 runs = []
                 for ep in plan:
-                    runs.append(run_episode(env, policy, ep.get("seed"), ep.get("options"), final_keys))
+                    runs.append(
+                        run_episode(env, policy, ep.get("seed"), ep.get("options"), final_keys, None, result.objective)
+                    )
                     if bar is not None:
                         bar.update()
             finally:
                 env.close()
             result.rewards[name] = [r["rewards"] for r in runs]
+            if result.objective:
+                result.objective_rewards[name] = [r["objective_rewards"] for r in runs]
             result.returns[name] = [float(r["rewards"].sum()) for r in runs]
             keys = sorted({k for r in runs for k in r["components"]})
             result.components[name] = {k: [r["components"].get(k, 0.0) for r in runs] for k in keys}

@@ -21,9 +21,12 @@ MARKERS = ("o", "s", "^", "D", "v", "P", "X", "<", ">", "*")
 LINESTYLES = ("-", "--", "-.", ":")
 
 
-def mean_curves(result: BenchmarkResult) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """Policy -> mean cumulative reward per step with its 95 % band (low, high)."""
-    return {name: stats.mean_band([np.cumsum(r) for r in eps]) for name, eps in result.rewards.items()}
+def mean_curves(
+    result: BenchmarkResult, objective: bool = False
+) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Policy -> mean cumulative reward (or objective) per step with its 95 % band (low, high)."""
+    steps = result.objective_rewards if objective else result.rewards
+    return {name: stats.mean_band([np.cumsum(r) for r in eps]) for name, eps in steps.items()}
 
 
 def overlapping(curves: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]], tol: float = 1e-3) -> dict[str, str]:
@@ -49,15 +52,24 @@ def legend_labels(
     return {n: f"{labels[n]} (overlaps {labels[hidden[n]]})" if n in hidden else labels[n] for n in curves}
 
 
-def save_figures(result: BenchmarkResult, out: Path) -> list[Path]:
-    """Write ``cumulative_reward.png`` (mean with a 95 % band) and ``returns_boxplot.png``."""
+def save_figures(result: BenchmarkResult, out: Path, objective: bool = False) -> list[Path]:
+    """Write ``cumulative_reward.png`` (mean with a 95 % band) and ``returns_boxplot.png``.
+
+    Args:
+        result: The benchmark's result.
+        out: The folder.
+        objective: Plot the objective (the sum of ``result.objective``'s components, the score that claims
+            are checked on) instead of the full reward, when the result has one.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     paths = [out / "cumulative_reward.png", out / "returns_boxplot.png"]
-    curves = mean_curves(result)
+    objective = objective and bool(result.objective_rewards)
+    what = f"objective ({' + '.join(result.objective)})" if objective else "reward"
+    curves = mean_curves(result, objective)
     legend = legend_labels(result, curves)
     fig, ax = plt.subplots(figsize=(8.5, 4.2))
     n = len(curves)
@@ -76,8 +88,8 @@ def save_figures(result: BenchmarkResult, out: Path) -> list[Path]:
         ax.fill_between(steps, low, high, color=line.get_color(), alpha=0.12, linewidth=0)
         for edge in (low, high):  # the band's edges, so that overlapping bands stay apart
             ax.plot(steps, edge, color=line.get_color(), linewidth=0.6, alpha=0.7)
-    ax.set(xlabel=result.step_unit, ylabel="cumulative reward")
-    ax.set_title(f"{result.env_id}: mean cumulative reward (95 % CI band)")
+    ax.set(xlabel=result.step_unit, ylabel=f"cumulative {what}")
+    ax.set_title(f"{result.env_id}: mean cumulative {what.split(' ')[0]} (95 % CI band)")
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, frameon=False)
     fig.tight_layout()
     fig.savefig(paths[0], dpi=120)
@@ -85,8 +97,10 @@ def save_figures(result: BenchmarkResult, out: Path) -> list[Path]:
 
     fig, ax = plt.subplots(figsize=(max(7.0, 1.3 * n), 4.2))
     labels = result.labels
-    ax.boxplot(list(result.returns.values()), tick_labels=[labels[name] for name in result.returns])
-    ax.set(xlabel="policy", ylabel="episode return", title=f"{result.env_id}: returns per policy")
+    values = [result.objective_values(n) if objective else result.returns[n] for n in result.returns]
+    ax.boxplot(values, tick_labels=[labels[name] for name in result.returns])
+    per_episode = "episode objective" if objective else "episode return"
+    ax.set(xlabel="policy", ylabel=per_episode, title=f"{result.env_id}: {per_episode} per policy")
     if any(len(label) > 14 for label in labels.values()):
         ax.tick_params(axis="x", labelrotation=20)
     fig.tight_layout()

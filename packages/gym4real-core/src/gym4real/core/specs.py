@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -125,26 +126,47 @@ RELATIONS: tuple[str, ...] = ("above", "below", "not_above", "less_variable")
 class Claim:
     """A claim of the paper about an environment's test comparison, checked by ``gym4real reproduce``.
 
-    Each comparison of ``policy`` with one of ``others`` is decided by the stratified-bootstrap 95 %
-    confidence interval of the difference of a statistic of the per-episode objective (over training seeds
-    and test episodes): the interquartile mean, or the standard deviation for ``less_variable``.
+    Each comparison of ``policy`` with one of ``others`` is decided by the two-level (seed, episode)
+    percentile-bootstrap interval of the difference of a statistic of the per-episode objective
+    (:mod:`gym4real.core.stats`): the interquartile mean, or for ``less_variable`` the spread across test
+    episodes (per training seed). A claim of k comparisons uses Bonferroni-simultaneous intervals, each at
+    level 1 - 0.05 / k, so that its verdict holds at a 95 % family level. The rules are in
+    :mod:`gym4real.core.rl.claims`.
 
     Args:
-        text: The claim in the paper's words, with where it is made.
+        text: The claim in the paper's words, with where it is made (and the reason of a margin).
         policy: The RL algorithm (``ppo``, ``qlearning``, ...) or baseline the claim is about.
-        relation: ``above`` (its IQM is above each of ``others``'), ``below``, ``not_above`` (not
-            significantly above any of them) or ``less_variable`` (its standard deviation is below theirs).
+        relation: ``above`` (its IQM is above each of ``others``'), ``below``, ``not_above`` (not above any
+            of them by more than ``margin``) or ``less_variable`` (its spread is below theirs).
         others: The policies compared with: baselines or RL algorithms.
+        margin: For ``not_above`` only: the margin of practical equivalence, in the objective's unit; a
+            difference below it is of no practical consequence (the text says why).
+        consistently: For ``above`` and ``below`` only: the claim says the policy is better consistently,
+            so every training seed's IQM must also be on the claimed side of each other policy's IQM.
     """
 
     text: str
     policy: str
     relation: str
     others: tuple[str, ...]
+    margin: float | None = None
+    consistently: bool = False
 
     def __post_init__(self) -> None:
         _check(self.relation in RELATIONS, f"claim relation `{self.relation}` is not one of {list(RELATIONS)}")
         _check(bool(self.others), f"claim `{self.text}` compares `{self.policy}` with no other policy")
+        if self.relation == "not_above":
+            _check(
+                self.margin is not None and math.isfinite(self.margin) and self.margin > 0,
+                f"claim `{self.text}`: a `not_above` claim needs `margin`, a positive margin of practical "
+                f"equivalence in the objective's unit (not {self.margin}), with its reason in the text",
+            )
+        else:
+            _check(self.margin is None, f"claim `{self.text}`: `margin` is for `not_above` claims only")
+        _check(
+            not self.consistently or self.relation in ("above", "below"),
+            f"claim `{self.text}`: `consistently` is for `above` and `below` claims only",
+        )
 
 
 @dataclass(frozen=True)

@@ -4,24 +4,27 @@ For each environment, every algorithm with a training preset of the budget (``pa
 settings; ``quick``: the ``smoke`` presets, minutes) is trained once per seed, unless a finished run of
 the same settings is already in the output folder (an unfinished one resumes from its last checkpoint).
 Every model and every baseline of the protocol then runs the test protocol; the per-episode objective
-gives, per policy, a ``(seeds, episodes)`` score matrix, summarised by its IQM with a 95 % bootstrap
-interval over the test episodes (:mod:`gym4real.core.stats`). Each claim that the domain declares
-(:class:`~gym4real.core.specs.Claim`) is checked with the interval of the difference.
+gives, per policy, a ``(seeds, episodes)`` score matrix, summarised by its IQM with a 95 % two-level
+(seed, episode) bootstrap interval (:mod:`gym4real.core.stats`). Each claim that the domain declares
+(:class:`~gym4real.core.specs.Claim`) is checked by the rules of :mod:`gym4real.core.rl.claims`. Every
+statistic is computed from ``episodes.csv`` alone (:mod:`gym4real.core.rl.analysis`).
 
 Layout of the output folder ``OUT``::
 
-    OUT/results.md                        the results page (every environment and budget found in OUT)
-    OUT/claims.json, OUT/summary.csv      every claim's verdict; every policy's row
+    OUT/results.md, claims.md             the results page (every environment and budget found in OUT)
+    OUT/claims.json, OUT/manifest.json    every claim's verdict; code version, versions and data files
     OUT/<env>/<budget>/runs/<algo>/seed<S>/   one training run (model, curve.csv, settings.json, run.json)
-    OUT/<env>/<budget>/summary.csv, claims.json, report.json
-    OUT/<env>/<budget>/cumulative_reward.png, returns_boxplot.png, learning_curves.png, learning_curves.csv
-    OUT/<env>/<budget>/error.txt          why the environment could not be run (missing data, ...)
+    OUT/<env>-<budget>/episodes.csv, runs.csv, report.json            the raw data and its provenance
+    OUT/<env>-<budget>/summary.csv, improvement.csv, claims.json      computed from episodes.csv
+    OUT/<env>-<budget>/*.png, learning_curves.csv                     the figures
+    OUT/<env>-<budget>/error.txt          why the environment could not be run (missing data, ...)
 """
 
 from __future__ import annotations
 
 import dataclasses
 import json
+import platform
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -34,15 +37,11 @@ import pandas as pd
 from gym4real.core import stats
 from gym4real.core.benchmark import BenchmarkResult, benchmark, protocol
 from gym4real.core.errors import Gym4RealError
+from gym4real.core.rl import analysis, provenance
 from gym4real.core.rl.plan import Item, plan, slug
 from gym4real.core.rl.progress import PlanProgress
 from gym4real.core.rl.runner import describe_error, train_plan
-from gym4real.core.rl.train import TrainingRun, versions
-from gym4real.core.specs import Claim
-
-
-def _scores(result: Any, name: str) -> np.ndarray:
-    return np.asarray(result.objective_values(name), dtype=float)
+from gym4real.core.rl.train import TrainingRun
 
 
 @dataclass
@@ -51,6 +50,11 @@ class EnvReport:
 
     table: pd.DataFrame
     claims: list[dict[str, Any]]
+
+
+def results_folder(out: Path, env_id: str, budget: str) -> Path:
+    """``OUT/<env>-<budget>``: the tested results of one env and budget (its runs are in ``OUT/<env>/<budget>``)."""
+    return out / f"{slug(env_id)}-{budget}"
 
 
 def pooled(result: BenchmarkResult, groups: dict[str, list[str]]) -> BenchmarkResult:
@@ -75,106 +79,93 @@ def pooled(result: BenchmarkResult, groups: dict[str, list[str]]) -> BenchmarkRe
         episodes=list(result.episodes) * max(len(names) for names in groups.values()),
         returns=joined(result.returns),
         rewards=joined(result.rewards),
+        objective_rewards=joined(result.objective_rewards) if result.objective_rewards else {},
         components=joined(result.components),
         final_info=joined(result.final_info),
     )
 
 
-def check_claim(claim: Claim, scores: dict[str, np.ndarray]) -> dict[str, Any]:
-    """The verdict of one claim, with every comparison's difference and 95 % interval."""
-    statistic = "std" if claim.relation == "less_variable" else "iqm"
-    record: dict[str, Any] = {
-        "text": claim.text,
-        "policy": claim.policy,
-        "relation": claim.relation,
-        "statistic": statistic,
-        "comparisons": [],
-    }
-    missing = [p for p in (claim.policy, *claim.others) if p not in scores]
-    if missing:
-        record["verdict"] = "not checked"
-        record["reason"] = f"no test scores of {missing}"
-        return record
-    verdicts = []
-    for other in claim.others:
-        diff, low, high = stats.difference_ci(scores[claim.policy], scores[other], statistic)
-        verdicts.append(stats.verdict(claim.relation, low, high))
-        record["comparisons"].append({"other": other, "difference": diff, "ci95": [low, high], "verdict": verdicts[-1]})
-    if "does not hold" in verdicts:
-        record["verdict"] = "does not hold"
-    elif all(v == "holds" for v in verdicts):
-        record["verdict"] = "holds"
-    else:
-        record["verdict"] = "inconclusive"
-    return record
+def episodes_table(result: BenchmarkResult, baselines: list[str], runs: list[TrainingRun]) -> pd.DataFrame:
+    """``episodes.csv``: one row per policy, seed (empty for a baseline) and test episode.
 
-
-def _table(scores: dict[str, np.ndarray], returns: dict[str, list[float]], runs: list[TrainingRun]) -> pd.DataFrame:
+    Columns ``policy, seed, episode, objective, return``, then one per reward component (per-episode sums).
+    """
+    named = [(name, name, None) for name in baselines] + [(r.algo, r.policy, r.seed) for r in runs]
+    components = sorted({c for name in result.components.values() for c in name})
     rows = []
-    for name, matrix in scores.items():
-        mine = [r for r in runs if r.algo == name]
-        value, low, high = stats.iqm_ci(matrix)
-        row: dict[str, Any] = {
-            "policy": name,
-            "kind": "agent" if mine else "baseline",
-            "seeds": matrix.shape[0] if mine else 0,
-            "episodes": matrix.shape[1],
-            "iqm": value,
-            "ci95_low": low,
-            "ci95_high": high,
-            "mean": float(matrix.mean()),
-            "std": float(matrix.std()),
-            "mean_return": float(np.mean(returns[name])),
-            "seed_iqm_min": float(min(stats.iqm(m) for m in matrix)),
-            "seed_iqm_max": float(max(stats.iqm(m) for m in matrix)),
-        }
-        if mine:
-            row["train_wall_time_s"] = float(sum(r.wall_time_s for r in mine))
-            row["env_steps"] = int(sum(r.env_steps + r.eval_steps for r in mine))
-            row["env_steps_per_s"] = row["env_steps"] / row["train_wall_time_s"]
-        rows.append(row)
-    return pd.DataFrame(rows).set_index("policy")
+    for policy, key, seed in named:
+        objective = result.objective_values(key)
+        for i, ret in enumerate(result.returns[key]):
+            row: dict[str, Any] = {"policy": policy, "seed": seed, "episode": i, "objective": objective[i]}
+            row["return"] = ret
+            comps = result.components[key]
+            row.update({c: comps[c][i] if c in comps else np.nan for c in components})
+            rows.append(row)
+    frame = pd.DataFrame(rows)
+    frame["seed"] = frame["seed"].astype("Int64")
+    return frame
 
 
 def _curves(runs: list[TrainingRun], folder: Path) -> None:
-    """``learning_curves.csv`` and ``.png``: per algorithm, the mean over seeds and its 95 % band."""
+    """``learning_curves.csv`` and ``.png``: per algorithm, each seed's curve, their mean and its 95 % band.
+
+    The mean and its t-band are drawn where at least two seeds have a validation point (seeds that stopped
+    early end their curve sooner); an algorithm of one seed shows that seed's curve and its band over the
+    validation episodes.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from gym4real.core.plots import LINESTYLES, MARKERS
+
     frames = []
-    fig, ax = plt.subplots(figsize=(7, 4))
+    fig, ax = plt.subplots(figsize=(9.5, 4.2))
     unit = "timesteps"
-    for algo in sorted({r.algo for r in runs}):
-        curves = [pd.read_csv(r.curve_csv) for r in runs if r.algo == algo and r.curve_csv.exists()]
+    for i, algo in enumerate(sorted({r.algo for r in runs})):
+        mine = [r for r in runs if r.algo == algo and r.curve_csv.exists()]
+        curves = [pd.read_csv(r.curve_csv) for r in mine]
         if not curves:
             continue
         unit = "episodes" if "episodes" in curves[0].columns else "timesteps"
         x = np.array(sorted({v for c in curves for v in c[unit]}))
         rows = np.full((len(curves), len(x)), np.nan)
-        for i, c in enumerate(curves):
-            rows[i, np.searchsorted(x, c[unit])] = c["mean_return"]
+        for k, c in enumerate(curves):
+            rows[k, np.searchsorted(x, c[unit])] = c["mean_return"]
+        style: dict[str, Any] = {
+            "linestyle": LINESTYLES[i % len(LINESTYLES)],
+            "marker": MARKERS[i % len(MARKERS)],
+            "markersize": 4,
+        }
         if len(curves) > 1:
             mean, low, high = stats.t_band(rows)
-            band = "95 % t-interval over seeds"
+            count = np.sum(~np.isnan(rows), axis=0)
+            mean = np.where(count > 1, mean, np.nan)
+            label = f"{algo}: mean of {len(curves)} seeds (95 % t-band)"
+            (line,) = ax.plot(x, mean, label=label, **style)
+            for k, c in enumerate(curves):
+                ax.plot(
+                    c[unit],
+                    c["mean_return"],
+                    color=line.get_color(),
+                    linewidth=0.7,
+                    alpha=0.45,
+                    label=f"{algo}: each seed" if k == 0 else None,
+                )
         else:
             mean, low, high = rows[0], curves[0]["ci95_low"].to_numpy(), curves[0]["ci95_high"].to_numpy()
-            band = "95 % interval over evaluation episodes (one seed)"
-        frames.append(
-            pd.DataFrame(
-                {"algo": algo, unit: x, "seeds": np.sum(~np.isnan(rows), 0), "mean": mean, "low": low, "high": high}
-            )
-        )
-        ax.plot(x, mean, label=f"{algo} ({len(curves)} seed{'s' if len(curves) > 1 else ''}; {band})")
-        ax.fill_between(x, low, high, alpha=0.25)
+            (line,) = ax.plot(x, mean, label=f"{algo}: seed {mine[0].seed} (95 % band over episodes)", **style)
+            count = np.ones(len(x), dtype=int)
+        ax.fill_between(x, low, high, color=line.get_color(), alpha=0.2, linewidth=0)
+        frames.append(pd.DataFrame({"algo": algo, unit: x, "seeds": count, "mean": mean, "low": low, "high": high}))
     if not frames:
         plt.close(fig)
         return
-    ax.set(xlabel=unit, ylabel="validation return", title=f"{runs[0].env_id}: learning curves (mean, 95 % band)")
-    ax.legend(fontsize=7)
+    ax.set(xlabel=f"training {unit}", ylabel="mean validation return", title=f"{runs[0].env_id}: learning curves")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, frameon=False, fontsize=8)
     fig.tight_layout()
-    fig.savefig(folder / "learning_curves.png", dpi=100)
+    fig.savefig(folder / "learning_curves.png", dpi=120)
     plt.close(fig)
     pd.concat(frames).to_csv(folder / "learning_curves.csv", index=False)
 
@@ -186,53 +177,52 @@ def reproduce_env(
     out: Path,
     command: str,
 ) -> EnvReport:
-    """Test the trained ``runs`` of ``env_id`` (one per algorithm and seed), check the claims, write."""
+    """Test the trained ``runs`` of ``env_id`` (one per algorithm and seed), check the claims, write.
+
+    Writes into ``OUT/<env>-<budget>/``: ``episodes.csv`` and ``runs.csv`` (the raw data), ``report.json``
+    (command, protocol, code version, versions, data files), then the statistics computed from
+    ``episodes.csv`` alone (:func:`gym4real.core.rl.analysis.analyse`) and the figures.
+    """
     from gym4real.core import plots
 
-    folder = out / slug(env_id) / budget
+    folder = results_folder(out, env_id, budget)
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "error.txt").unlink(missing_ok=True)
     spec = protocol(env_id)
     baselines = list(spec.policies)
     test_start = time.perf_counter()
     result = benchmark(env_id, [*baselines, *(run.policy for run in runs)], episodes="test")
-    groups = {name: [name] for name in baselines}
-    for run in runs:
-        groups.setdefault(run.algo, []).append(run.policy)
-    scores = {group: np.stack([_scores(result, name) for name in names]) for group, names in groups.items()}
     test_wall = time.perf_counter() - test_start
-    tested = pooled(result, groups)
-    table = _table(scores, tested.returns, runs)
-    claims = [{"env_id": env_id, **check_claim(c, scores)} for c in spec.claims]
-    plots.save_figures(tested, folder)
-    _curves(runs, folder)
-    table.to_csv(folder / "summary.csv")
-    (folder / "claims.json").write_text(json.dumps(claims, indent=1))
+    episodes_table(result, baselines, runs).to_csv(folder / "episodes.csv", index=False)
+    provenance.runs_table(runs).to_csv(folder / "runs.csv", index=False)
     report = {
         "env_id": env_id,
         "budget": budget,
         "command": command,
         "objective": list(spec.objective) or ["return"],
         "protocol": spec.description,
+        "step_unit": spec.step_unit,
         "seeds": sorted({r.seed for r in runs}),
         "presets": {r.algo: r.preset for r in runs},
-        "runs": [
-            {
-                "algo": r.algo,
-                "seed": r.seed,
-                "wall_time_s": r.wall_time_s,
-                "env_steps": r.env_steps,
-                "eval_steps": r.eval_steps,
-                "env_steps_per_s": r.steps_per_s,
-            }
-            for r in runs
-        ],
-        "training_wall_time_s": sum(r.wall_time_s for r in runs),
         "test_wall_time_s": test_wall,
-        "versions": versions(),
+        "code_version": provenance.code_version(),
+        "versions": provenance.versions(),
+        "platform": platform.platform(),
+        "data_files": provenance.data_files(env_id),
     }
     (folder / "report.json").write_text(json.dumps(report, indent=1))
-    return EnvReport(table, claims)
+    claims = analysis.analyse(folder, env_id, budget)
+    groups = {name: [name] for name in baselines}
+    for run in runs:
+        groups.setdefault(run.algo, []).append(run.policy)
+    plots.save_figures(pooled(result, groups), folder, objective=True)
+    _curves(runs, folder)
+    return EnvReport(pd.read_csv(folder / "summary.csv"), claims)
+
+
+def _shown(out: Path) -> str:
+    """``out`` as the page's command shows it: as given when relative, else ``OUT`` (no machine path)."""
+    return str(out) if not out.is_absolute() else "OUT"
 
 
 def reproduce(
@@ -246,7 +236,7 @@ def reproduce(
     """Reproduce the paper's results of ``env_ids``; return a text report (tables and claim verdicts).
 
     An environment that cannot run (missing data, a missing extra) is reported with its error, in the
-    output and in ``<env>/<budget>/error.txt``, and the others go on.
+    output and in ``<env>-<budget>/error.txt``, and the others go on.
 
     Args:
         env_ids: Registered ids.
@@ -274,18 +264,22 @@ def reproduce(
             if failed:
                 raise Gym4RealError(f"{len(failed)} training run(s) failed; first: {failed[0].error}")
             n_seeds = len({i.seed for i in items})
-            command = f"gym4real reproduce {env_id} --budget {budget} --seeds {n_seeds} --out {out}"
+            command = f"gym4real reproduce {env_id} --budget {budget} --seeds {n_seeds} --out {_shown(out)}"
             report = reproduce_env(env_id, budget, [o.run for o in mine if o.run is not None], out, command)
         except Exception as exc:  # one env's failure (missing data, a bug) must not stop the others
             errors[env_id] = describe_error(exc)
         else:
-            lines += [f"== {env_id} ({budget})", report.table.to_string(float_format=lambda v: f"{v:.4g}"), ""]
+            lines += [
+                f"== {env_id} ({budget})",
+                report.table.fillna("").to_string(float_format=lambda v: f"{v:.4g}"),
+                "",
+            ]
             for c in report.claims:
                 lines.append(f"claim: {c['text']} -> {c['verdict']}")
             lines.append("")
         bar.close_item()
     for env_id, error in errors.items():
-        folder = out / slug(env_id) / budget
+        folder = results_folder(out, env_id, budget)
         folder.mkdir(parents=True, exist_ok=True)
         (folder / "error.txt").write_text(error + "\n")
         lines.append(f"== {env_id} ({budget}): not run: {error}")

@@ -1,39 +1,60 @@
 """The results page of ``gym4real reproduce``: Markdown tables, figures and claim verdicts.
 
-:func:`write_page` reads every ``<env>/<budget>/`` folder of a reproduce output folder (its
-``report.json``, ``summary.csv``, ``claims.json``, figures, or ``error.txt``) and writes ``results.md``
-beside them, plus ``claims.json``, ``claims.md`` (the short table of verdicts) and ``summary.csv`` over all
-environments. Given a page folder (a docs
-folder) it writes ``index.md`` there with the figures copied under ``figures/<env>-<budget>/``.
+:func:`write_page` reads every ``<env>-<budget>/`` folder of a reproduce output folder (its raw data
+``episodes.csv`` and ``runs.csv``, ``report.json``, the statistics computed from ``episodes.csv`` --
+``summary.csv``, ``improvement.csv``, ``claims.json`` -- its figures, or ``error.txt``) and writes beside
+them ``results.md``, ``claims.json``, ``claims.md`` (the short table of verdicts) and ``manifest.json``
+(the code version, package versions and data files). Given a page folder (a docs folder) it writes
+``index.md`` there with the same files, each env folder copied without its training runs, so that the page
+folder alone regenerates the page (``write_page(page)``).
 """
 
 from __future__ import annotations
 
 import json
-import platform
+import re
 import shutil
+from collections import Counter
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
 
-from gym4real.core.rl.plan import slug
+from gym4real.core import stats
+from gym4real.core.rl import analysis
+from gym4real.core.rl.claims import RULES
 
-_FIGURES = (
-    ("cumulative_reward.png", "mean cumulative reward on the test episodes (95 % band)"),
-    ("returns_boxplot.png", "test returns (all seeds' episodes)"),
-    ("learning_curves.png", "learning curves: validation return during training (mean and 95 % band)"),
+#: The name of a results folder: ``<env>-<budget>``.
+FOLDER = re.compile(r"^(?P<env>[a-z0-9-]+)-(?P<budget>paper|quick)$")
+#: The files of a results folder that the page folder holds.
+PUBLISHED = (
+    "episodes.csv",
+    "runs.csv",
+    "summary.csv",
+    "improvement.csv",
+    "claims.json",
+    "report.json",
+    "learning_curves.csv",
+    "error.txt",
 )
+_FIGURES = (
+    ("cumulative_reward.png", "mean cumulative objective on the test episodes (95 % band)"),
+    ("returns_boxplot.png", "per-episode objective (all seeds' episodes)"),
+    ("performance_profile.png", "performance profile: fraction of runs x episodes above each score"),
+    ("learning_curves.png", "learning curves: validation return during training (each seed, mean, 95 % band)"),
+)
+QUICK = "pipeline check, not a verdict"
 
 
-def _fmt(v: Any) -> str:
+def _fmt(v: Any, scale: float = 0.0) -> str:
+    """A number with four significant digits; float noise (within ``stats.RTOL`` of ``scale``) as 0."""
     if isinstance(v, float):
-        return f"{v:.4g}"
+        return "-" if v != v else f"{stats.snap(v, scale):.4g}"
     return str(v)
 
 
-def _ci(low: float, high: float) -> str:
-    return f"[{low:.4g}, {high:.4g}]"
+def _ci(low: float, high: float, scale: float = 0.0) -> str:
+    return f"[{_fmt(float(low), scale)}, {_fmt(float(high), scale)}]"
 
 
 def _duration(seconds: float) -> str:
@@ -44,19 +65,25 @@ def _duration(seconds: float) -> str:
     return f"{seconds:.0f} s"
 
 
+def no_paths(text: str) -> str:
+    """``text`` without machine paths: an absolute path is shown by its last component."""
+    return re.sub(r"(?<![\w.:/])(?:~/(?:[\w.@+-]+/)*|/(?:[\w.@+-]+/)+)(?=[\w.@+-])", "", text)
+
+
 def _has_results(folder: Path) -> bool:
-    return (folder / "report.json").exists() and not (folder / "error.txt").exists()
+    return (folder / "episodes.csv").exists() and not (folder / "error.txt").exists()
 
 
 def _folders(out: Path) -> list[Path]:
     """Per environment: its paper-budget folder, or else why it is missing and its quick-budget folder."""
+    envs = sorted({m["env"] for p in out.iterdir() if p.is_dir() and (m := FOLDER.match(p.name))})
     found = []
-    for env in sorted(p for p in out.iterdir() if p.is_dir() and p.name != "figures"):
-        paper, quick = env / "paper", env / "quick"
+    for env in envs:
+        paper, quick = out / f"{env}-paper", out / f"{env}-quick"
         if _has_results(paper):
             found.append(paper)
             continue
-        found += [f for f in (paper, quick) if (f / "report.json").exists() or (f / "error.txt").exists()]
+        found += [f for f in (paper, quick) if _has_results(f) or (f / "error.txt").exists()]
     return found
 
 
@@ -75,7 +102,7 @@ def _what_it_runs(env_id: str, budget: str) -> str:
         spec = protocol(env_id)
         run_seeds = ", ".join(str(s) for s in seeds(env_id, budget))
     except Exception as exc:  # the page must be written even when the registry has changed
-        return f"(`gym4real reproduce {env_id} --budget {budget}` could not be planned: {exc})"
+        return f"(`gym4real reproduce {env_id} --budget {budget}` could not be planned: {no_paths(str(exc))})"
     claims = "; ".join(f'"{c.text}"' for c in spec.claims) or "none"
     return (
         f"With it in place, `gym4real reproduce {env_id} --budget {budget}` trains {', '.join(trained)} with "
@@ -84,169 +111,256 @@ def _what_it_runs(env_id: str, budget: str) -> str:
     )
 
 
-def _read(folder: Path) -> tuple[dict[str, Any], pd.DataFrame, list[dict[str, Any]]]:
-    """A finished env folder's ``report.json``, ``summary.csv`` and ``claims.json``."""
-    return (
-        json.loads((folder / "report.json").read_text()),
-        pd.read_csv(folder / "summary.csv"),
-        json.loads((folder / "claims.json").read_text()),
-    )
+class Section:
+    """The files of one finished results folder."""
+
+    def __init__(self, folder: Path) -> None:
+        self.folder = folder
+        self.name = folder.name
+        self.budget = FOLDER.match(folder.name)["budget"]  # type: ignore[index]
+        self.report: dict[str, Any] = json.loads((folder / "report.json").read_text())
+        self.episodes = pd.read_csv(folder / "episodes.csv")
+        self.summary = pd.read_csv(folder / "summary.csv")
+        self.improvement = pd.read_csv(folder / "improvement.csv")
+        self.claims: list[dict[str, Any]] = json.loads((folder / "claims.json").read_text())
+        self.runs = pd.read_csv(folder / "runs.csv") if (folder / "runs.csv").exists() else None
+        self.scale = float(self.episodes["objective"].abs().max())
+
+    @property
+    def version(self) -> str:
+        """The code version that produced the folder."""
+        return str(self.report["code_version"])
 
 
-def _section(folder: Path, found: tuple[dict[str, Any], pd.DataFrame, list[dict[str, Any]]] | None) -> list[str]:
-    """The page's section of one env folder; ``found`` is its :func:`_read`, None when it has no results."""
-    env, budget = folder.parent.name, folder.name
-    if found is None:
+def _verdict(verdict: str, budget: str, bold: bool = True) -> str:
+    if budget == "quick":
+        return f"{verdict} ({QUICK})"
+    return f"**{verdict}**" if bold else verdict
+
+
+def _comparison(c: dict[str, Any], comp: dict[str, Any], scale: float) -> str:
+    stat = "IQM" if comp["statistic"] == "iqm" else comp["statistic"]
+    text = f"{stat} {comp['a']} - {comp['b']}: {_fmt(comp['estimate'], scale)} {_ci(comp['low'], comp['high'], scale)}"
+    if c.get("margin") is not None:
+        text += f" (margin {_fmt(float(c['margin']))}, detectable ±{_fmt(comp['detectable'], scale)})"
+    return text
+
+
+def _section(folder: Path, section: Section | None, version: str) -> list[str]:
+    """The page's section of one env folder; ``section`` is None when it has no results."""
+    m = FOLDER.match(folder.name)
+    env, budget = m["env"], m["budget"]  # type: ignore[index]
+    if section is None:
         error = (folder / "error.txt").read_text().strip() if (folder / "error.txt").exists() else "no results"
         return [
             f"## `gym4real/{env}`, budget `{budget}`: not run",
             "",
-            f"Not run here: {error}",
+            f"Not run here: {no_paths(error)}",
             "",
             _what_it_runs(f"gym4real/{env}", budget),
             "",
         ]
-    report, table, claims = found
-    lines = [
-        f"## `{report['env_id']}`, budget `{budget}`",
-        "",
-        f"Test protocol: {report['protocol']}. Objective: {' + '.join(report['objective'])} per episode.",
-        "",
-        *(
-            [f"Command (reuses the finished runs of its output folder): `{report['command']}`", ""]
-            if "command" in report
-            else []
-        ),
-        f"Training presets {', '.join(f'`{a}/{p}`' for a, p in report['presets'].items())}; seeds "
-        f"{', '.join(str(s) for s in report['seeds'])}; training wall time "
-        f"{_duration(report['training_wall_time_s'])} (sum over runs), test {_duration(report['test_wall_time_s'])}"
-        f"{'; code ' + report['versions']['gym4real (git)'] if 'gym4real (git)' in report['versions'] else ''}.",
-        "",
-        "| policy | seeds | episodes | IQM | 95 % CI | mean | std | seed IQMs | mean return | train time "
-        "| env-steps/s |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
-    ]
-    for row in table.to_dict("records"):
-        agent = row["kind"] == "agent"
-        lines.append(
-            f"| {'**' + row['policy'] + '**' if agent else row['policy']} | {row['seeds'] if agent else '-'} "
-            f"| {row['episodes']} | {_fmt(row['iqm'])} | {_ci(row['ci95_low'], row['ci95_high'])} "
-            f"| {_fmt(row['mean'])} | {_fmt(row['std'])} "
-            f"| {_ci(row['seed_iqm_min'], row['seed_iqm_max']) if agent else '-'} "
-            f"| {_fmt(row['mean_return']) if 'mean_return' in row else '-'} "
-            f"| {_duration(row['train_wall_time_s']) if agent else '-'} "
-            f"| {_fmt(row['env_steps_per_s']) if agent else '-'} |"
-        )
+    report, scale, name = section.report, section.scale, section.name
+    title = f"## `{report['env_id']}`, budget `{budget}`" + (f": {QUICK}" if budget == "quick" else "")
+    lines = [title, ""]
+    if section.version != version:
+        lines += [f"**Flagged: from code version `{section.version}`, not the page's `{version}`.**", ""]
+    runs = section.runs
+    train_s = float(runs["wall_s"].sum()) if runs is not None and len(runs) else 0.0
     lines += [
+        f"Test protocol: {report['protocol']}. Objective (the score): {' + '.join(report['objective'])} per episode.",
         "",
+        f"Command (reuses the finished runs of its output folder): `{report['command']}`",
+        "",
+        f"Code version `{section.version}`; training presets "
+        f"{', '.join(f'`{a}/{p}`' for a, p in report['presets'].items())}; seeds "
+        f"{', '.join(str(s) for s in report['seeds'])}; training wall time {_duration(train_s)} (sum over runs), "
+        f"test {_duration(report['test_wall_time_s'])}. Raw data: "
+        + ", ".join(f"[{f}]({name}/{f})" for f in ("episodes.csv", "runs.csv", "summary.csv", "improvement.csv"))
+        + ".",
+        "",
+        "| policy | seeds | episodes | IQM | 95 % interval | mean | spread | mean return | train time | env-steps/s |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    notes = []
+    for row in section.summary.to_dict("records"):
+        agent = row["kind"] == "agent"
+        mine = runs[runs["algo"] == row["policy"]] if runs is not None and agent else None
+        cost = (
+            f"{_duration(float(mine['wall_s'].sum()))} | "
+            f"{_fmt(float((mine['env_steps'] + mine['eval_steps']).sum() / mine['wall_s'].sum()))}"
+            if mine is not None and len(mine)
+            else "- | -"
+        )
+        lines.append(
+            f"| {row['policy']} | {row['seeds'] if agent else '-'} | {row['episodes']} | {_fmt(row['iqm'], scale)} "
+            f"| {_ci(row['low'], row['high'], scale)} | {_fmt(row['mean'], scale)} | {_fmt(row['spread'], scale)} "
+            f"| {_fmt(row['mean_return'])} | {cost} |"
+        )
+        if isinstance(row.get("identical_to"), str) and row["identical_to"]:
+            notes.append(
+                f"`{row['policy']}` is identical to `{row['identical_to']}` in every test episode: the two "
+                "policies take the same score in each (to 1e-6 of the scores' magnitude), so every statistic of "
+                "theirs is equal."
+            )
+    lines += ["", *(f"Note: {n}" for n in notes), *([""] if notes else [])]
+    seeds = analysis.per_seed(section.episodes, runs)
+    if len(seeds):
+        lines += ["Per training seed (a failed seed shows here; the pooled IQM can hide it):", ""]
+        lines += ["| policy | seed | IQM | mean | validation-selected checkpoint |", "|---|---|---|---|---|"]
+        for row in seeds.to_dict("records"):
+            kept = row.get("selected_at")
+            at = f"{int(kept):,} {row['selected_unit']}" if kept == kept and kept is not None else "-"
+            lines.append(
+                f"| {row['policy']} | {row['seed']} | {_fmt(row['iqm'], scale)} | {_fmt(row['mean'], scale)} | {at} |"
+            )
+        lines.append("")
+    if len(section.improvement):
+        lines += [
+            "Probability of improvement (a run of the agent scores more than the baseline on the same test episode):",
+            "",
+            "| agent | baseline | P(agent > baseline) [95 % interval] |",
+            "|---|---|---|",
+        ]
+        for row in section.improvement.to_dict("records"):
+            lines.append(
+                f"| {row['agent']} | {row['baseline']} | {row['p']:.3f} [{row['low']:.3f}, {row['high']:.3f}] |"
+            )
+        lines.append("")
+    lines += [
         "Claims of the paper:",
         "",
-        "| claim | comparison | difference [95 % CI] | verdict |",
-        "|---|---|---|---|",
+        "| claim | comparison: difference [interval] | level | verdict | rule |",
+        "|---|---|---|---|---|",
     ]
-    for c in claims:
-        stat = "std" if c["statistic"] == "std" else "IQM"
+    for c in section.claims:
         if not c["comparisons"]:
-            lines.append(f"| {c['text']} | - | {c.get('reason', '')} | **{c['verdict']}** |")
+            lines.append(f"| {c['text']} | - | - | {_verdict(c['verdict'], budget)} | {c['rule']} |")
+            continue
         for i, comp in enumerate(c["comparisons"]):
             lines.append(
-                f"| {c['text'] if i == 0 else ''} | {stat} {c['policy']} - {comp['other']} "
-                f"| {_fmt(comp['difference'])} {_ci(*comp['ci95'])} | {comp['verdict']} |"
+                f"| {c['text'] if i == 0 else ''} | {_comparison(c, comp, scale)} | {comp['level']:.4g} "
+                f"| {_verdict(comp['verdict'], budget, bold=False)} | {comp['rule']} |"
             )
-        lines.append(f"| | **overall** | | **{c['verdict']}** |")
+        lines.append(f"| | **claim** | {c['family_level']:.2g} | {_verdict(c['verdict'], budget)} | {c['rule']} |")
     lines.append("")
-    for name, caption in _FIGURES:
-        if (folder / name).exists():
-            lines += [f"![{report['env_id']}: {caption}](figures/{env}-{budget}/{name})", ""]
+    for file, caption in _FIGURES:
+        if (folder / file).exists():
+            lines += [f"![{report['env_id']}: {caption}]({name}/{file})", ""]
     return lines
 
 
-def _binding(claim: dict[str, Any]) -> dict[str, Any] | None:
-    """The comparison that decides a claim: the worst verdict, then the interval least favourable to it."""
-    comps = claim["comparisons"]
-    if not comps:
-        return None
-    rank = {"does not hold": 0, "inconclusive": 1, "holds": 2}
-    if claim["relation"] == "above":
-        return min(comps, key=lambda c: (rank[c["verdict"]], c["ci95"][0]))
-    if claim["relation"] == "not_above":
-        return min(comps, key=lambda c: (rank[c["verdict"]], -c["ci95"][0]))
-    return min(comps, key=lambda c: (rank[c["verdict"]], -c["ci95"][1]))
-
-
-def claims_table(claims: list[dict[str, Any]]) -> str:
-    """A short Markdown table: per claim, the verdict and the interval of its deciding comparison."""
+def claims_table(claims: list[dict[str, Any]], scales: dict[str, float] | None = None) -> str:
+    """A short Markdown table: per claim, the verdict, its rule and the deciding comparison."""
     lines = [
-        "| env | budget | paper's claim | verdict | deciding comparison: difference [95 % CI] |",
-        "|---|---|---|---|---|",
+        "| env | budget | paper's claim | verdict | rule | deciding comparison: difference [interval] |",
+        "|---|---|---|---|---|---|",
     ]
     for c in claims:
-        comp = _binding(c)
-        stat = "std" if c["statistic"] == "std" else "IQM"
-        where = (
-            f"{stat} {c['policy']} - {comp['other']}: {_fmt(comp['difference'])} {_ci(*comp['ci95'])}"
-            if comp
-            else c.get("reason", "")
+        env = c["env_id"].split("/", 1)[-1]
+        scale = (scales or {}).get(f"{env}-{c['budget']}", 0.0)
+        comp = next((x for x in c["comparisons"] if x["b"] == c.get("deciding")), None)
+        where = _comparison(c, comp, scale) if comp else "-"
+        lines.append(
+            f"| `{env}` | {c['budget']} | {c['text']} | {_verdict(c['verdict'], c['budget'])} | {c['rule']} | {where} |"
         )
-        lines.append(f"| `{slug(c['env_id'])}` | {c['budget']} | {c['text']} | **{c['verdict']}** | {where} |")
     return "\n".join(lines) + "\n"
 
 
+def _method() -> list[str]:
+    return [
+        "Generated by `gym4real reproduce` from the files beside this page alone: every RL algorithm of the "
+        "paper trained per seed with the budget's training presets, then tested on the environment's test "
+        "protocol beside the baselines. `<env>-<budget>/episodes.csv` holds every test score (one row per "
+        "policy, seed and episode); every number below about test scores is computed from it "
+        "(`gym4real.core.rl.analysis`), `runs.csv` holds each training run and its settings, and "
+        "`manifest.json` the code version, package versions and the SHA-256 of the data files.",
+        "",
+        "**Statistics.** A policy's score in a test episode is the per-episode objective. The IQM "
+        "(interquartile mean over all seeds and test episodes) has a 95 % two-level (seed, episode) "
+        "percentile-bootstrap interval: each replicate draws the test episodes with replacement, the same ones "
+        "for every policy, and an RL algorithm's training seeds with replacement, so that the interval covers "
+        "the variability of training as well as of the test episodes; a baseline's episodes are resampled only. "
+        "*Spread* is the standard deviation across test episodes, per seed, averaged over seeds. The probability "
+        "of improvement is rliable's P(agent > baseline): the chance that a run of the agent scores more than "
+        "the baseline on the same test episode (ties count one half). Numbers below 1e-9 of the scores' "
+        "magnitude are float noise and shown as 0. Wall times and env-steps/s were measured on a shared machine "
+        "and vary with its load.",
+        "",
+        f"**Budgets.** An environment is shown at the `paper` budget when it was run there, else at the `quick` "
+        f"budget (the smoke presets: seconds of training), whose verdicts are a *{QUICK}*.",
+        "",
+        "**Rules of the verdicts.** Each claim comparison is the difference of a statistic (policy - other) "
+        "with its interval; the rule that decided each verdict is named beside it:",
+        "",
+        *(f"- *{name}*: {words}." for name, words in RULES.items()),
+        "",
+    ]
+
+
+def manifest(sections: list[Section], version: str) -> dict[str, Any]:
+    """``manifest.json``: the page's code version, each section's, package versions, platform, data files."""
+    main = next((s for s in sections if s.version == version), None)
+    return {
+        "code_version": version,
+        "sections": {s.name: s.version for s in sections},
+        "versions": main.report["versions"] if main else {},
+        "platform": main.report["platform"] if main else "",
+        "data_files": {s.name: s.report["data_files"] for s in sections},
+    }
+
+
+def _publish(folder: Path, page: Path) -> None:
+    """Copy a results folder's published files and figures into ``page/<env>-<budget>/``."""
+    target = page / folder.name
+    if target.resolve() == folder.resolve():
+        return
+    shutil.rmtree(target, ignore_errors=True)
+    files = [folder / f for f in PUBLISHED] + [folder / f for f, _ in _FIGURES]
+    for file in files:
+        if file.exists():
+            target.mkdir(parents=True, exist_ok=True)
+            shutil.copy(file, target / file.name)
+
+
 def write_page(out: Path, page: str | Path | None = None) -> Path:
-    """Write ``out/results.md`` (and ``page/index.md`` with its figures) from the env folders in ``out``."""
+    """Write ``out/results.md`` (and ``page/index.md`` with its files) from the results folders in ``out``."""
+    out = Path(out)
     folders = _folders(out)
-    found = {folder: _read(folder) for folder in folders if _has_results(folder)}
-    claims: list[dict[str, Any]] = []
-    tables = []
-    versions: dict[str, str] = {}
-    for folder, (report, table, env_claims) in found.items():
-        versions.update({k: v for k, v in report["versions"].items() if k != "gym4real (git)"})
-        claims += [{**c, "budget": folder.name} for c in env_claims]
-        tables.append(table.assign(env_id=report["env_id"], budget=folder.name))
-    (out / "claims.json").write_text(json.dumps(claims, indent=1))
-    (out / "claims.md").write_text(claims_table(claims))
-    if tables:
-        pd.concat(tables).to_csv(out / "summary.csv", index=False)
+    sections = {folder: Section(folder) for folder in folders if _has_results(folder)}
+    counts = Counter(s.version for s in sections.values())
+    version = counts.most_common(1)[0][0] if counts else "none"
+    claims = [c for s in sections.values() for c in s.claims]
+    scales = {s.name: s.scale for s in sections.values()}
+    record = manifest(list(sections.values()), version)
+    others = [s.name for s in sections.values() if s.version != version]
     head = [
         "# Reproduced results",
         "",
-        "Generated by `gym4real reproduce`: every RL algorithm of the paper trained per seed with the budget's "
-        "training presets, tested on the environment's test protocol beside the baselines. Scores are the "
-        "per-episode objective (*mean return* is the mean of the full reward, which the cumulative-reward figure "
-        "shows); the IQM (interquartile mean over all seeds and test episodes) has a 95 % percentile-bootstrap "
-        "interval over the test episodes (scipy; each resampled episode keeps every "
-        "seed's score); *seed IQMs* gives the range of the per-seed IQMs; *std* is over all seeds' test episodes, "
-        "so it includes the spread between seeds. A claim comparison holds when the interval of the difference "
-        "lies on the claimed side of 0, does not hold when it lies on the other side, and is inconclusive "
-        "otherwise; a claim holds when all its comparisons hold. Wall times and env-steps/s were measured on a "
-        "shared machine and vary with its load. An environment is shown at the `paper` budget when it was run "
-        "there, else at the `quick` budget (the smoke presets: seconds of training), which checks that the "
-        "pipeline runs and says nothing about the paper's claims.",
+        f"Code version `{version}` (`manifest.json`). "
+        + (f"**Sections from other code versions, flagged below: {', '.join(others)}.** " if others else "")
+        + f"Versions: {', '.join(f'{k} {v}' for k, v in record['versions'].items())}; {record['platform']}.",
         "",
-        f"Versions: {', '.join(f'{k} {v}' for k, v in sorted(versions.items()))}; Python "
-        f"{platform.python_version()}, {platform.machine()}.",
-        "",
-        claims_table(claims),
+        *_method(),
+        claims_table(claims, scales),
     ]
     body: list[str] = []
     for folder in folders:
-        body += _section(folder, found.get(folder))
+        body += _section(folder, sections.get(folder), version)
     text = "\n".join(head + body)
     (out / "results.md").write_text(text)
-    shutil.rmtree(out / "figures", ignore_errors=True)
+    (out / "claims.json").write_text(json.dumps(claims, indent=1))
+    (out / "claims.md").write_text(claims_table(claims, scales))
+    (out / "manifest.json").write_text(json.dumps(record, indent=1))
+    if page is None:
+        return out / "results.md"
+    page = Path(page)
+    page.mkdir(parents=True, exist_ok=True)
+    (page / "index.md").write_text(text)
+    for name in ("claims.json", "manifest.json"):
+        if (page / name).resolve() != (out / name).resolve():
+            shutil.copy(out / name, page / name)
+    shutil.rmtree(page / "figures", ignore_errors=True)  # the layout before raw data: figures/<env>-<budget>/
     for folder in folders:
-        target = out / "figures" / f"{folder.parent.name}-{folder.name}"
-        for name, _ in _FIGURES:
-            if (folder / name).exists():
-                target.mkdir(parents=True, exist_ok=True)
-                shutil.copy(folder / name, target / name)
-    written = out / "results.md"
-    if page is not None:
-        page = Path(page)
-        page.mkdir(parents=True, exist_ok=True)
-        (page / "index.md").write_text(text)
-        shutil.rmtree(page / "figures", ignore_errors=True)
-        if (out / "figures").exists():
-            shutil.copytree(out / "figures", page / "figures")
-        written = page / "index.md"
-    return written
+        _publish(folder, page)
+    return page / "index.md"

@@ -1,0 +1,171 @@
+"""The statistics of an environment's reproduced results, computed from its ``episodes.csv`` alone.
+
+``episodes.csv`` holds one row per policy, training seed (empty for a baseline) and test episode, with the
+per-episode ``objective`` (the score), the ``return`` and one column per reward component. Every number
+of the results page about test scores is computed here from that file, with the seeded two-level
+bootstrap of :mod:`gym4real.core.stats`, so that anyone can recompute it:
+
+- ``summary.csv``: per policy, the IQM of the objective with its 95 % interval, mean, spread, mean return;
+- ``improvement.csv``: per RL algorithm and baseline, rliable's probability of improvement with its interval;
+- ``claims.json`` (per env): every claim of the paper checked (:mod:`gym4real.core.rl.claims`);
+- ``performance_profile.png``: the fraction of (run, episode) scores above each threshold, per policy.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from gym4real.core import stats
+from gym4real.core.rl.claims import check_claim, identical
+
+#: Thresholds of the performance profile.
+PROFILE_POINTS = 101
+
+
+def score_matrices(episodes: pd.DataFrame, column: str = "objective") -> tuple[dict[str, np.ndarray], set[str]]:
+    """Policy -> its ``(runs, episodes)`` matrix of ``column`` (in file order), and the trained policies.
+
+    A policy with seeds (an RL algorithm) has one row per seed, in increasing seed order; a baseline one row.
+
+    Raises:
+        ValueError: A policy lacks a seed's or an episode's score (the file is incomplete).
+    """
+    scores: dict[str, np.ndarray] = {}
+    trained: set[str] = set()
+    for policy, rows in episodes.groupby("policy", sort=False):
+        name = str(policy)
+        if rows["seed"].notna().any():
+            trained.add(name)
+            grid = rows.pivot(index="seed", columns="episode", values=column).sort_index()
+        else:
+            grid = rows.set_index("episode")[[column]].T
+        if grid.isna().any().any() or len(grid.columns) != episodes["episode"].nunique():
+            raise ValueError(f"episodes.csv: policy `{name}` lacks the {column} of some seed or test episode")
+        scores[name] = grid.sort_index(axis=1).to_numpy(dtype=float)
+    return scores, trained
+
+
+def identical_to(scores: dict[str, np.ndarray]) -> dict[str, str]:
+    """Policy -> the first earlier policy with the same score in every test episode (and every seed)."""
+    found: dict[str, str] = {}
+    names = list(scores)
+    for i, name in enumerate(names):
+        same = [other for other in names[:i] if other not in found and identical(scores[name], scores[other])]
+        if same:
+            found[name] = same[0]
+    return found
+
+
+def summary(episodes: pd.DataFrame) -> pd.DataFrame:
+    """``summary.csv``: per policy, IQM [95 % interval] of the objective, mean, spread, mean return."""
+    scores, trained = score_matrices(episodes)
+    returns, _ = score_matrices(episodes, "return")
+    same = identical_to(scores)
+    rows = []
+    for name, matrix in scores.items():
+        value, low, high = stats.iqm_ci(matrix, name in trained)
+        rows.append(
+            {
+                "policy": name,
+                "kind": "agent" if name in trained else "baseline",
+                "seeds": matrix.shape[0] if name in trained else 0,
+                "episodes": matrix.shape[1],
+                "iqm": value,
+                "low": low,
+                "high": high,
+                "mean": float(matrix.mean()),
+                "spread": float(stats.batched("spread")(matrix[None])[0]),
+                "mean_return": float(returns[name].mean()),
+                "identical_to": same.get(name, ""),
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def per_seed(episodes: pd.DataFrame, runs: pd.DataFrame | None) -> pd.DataFrame:
+    """Per trained policy and seed: IQM and mean over test episodes, and the run's validation-selected checkpoint."""
+    scores, trained = score_matrices(episodes)
+    rows = []
+    for name in [n for n in scores if n in trained]:
+        seeds = sorted(episodes.loc[episodes["policy"] == name, "seed"].dropna().unique())
+        iqms, means = stats.per_seed(scores[name])
+        for seed, iqm, mean in zip(seeds, iqms, means, strict=True):
+            row: dict[str, Any] = {"policy": name, "seed": int(seed), "iqm": float(iqm), "mean": float(mean)}
+            if runs is not None:
+                run = runs[(runs["algo"] == name) & (runs["seed"] == int(seed))]
+                if len(run):
+                    row["selected_at"] = run["selected_at"].iloc[0]
+                    row["selected_unit"] = run["selected_unit"].iloc[0]
+            rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def improvement(episodes: pd.DataFrame) -> pd.DataFrame:
+    """``improvement.csv``: P(agent > baseline) with its 95 % interval, per RL algorithm and baseline."""
+    scores, trained = score_matrices(episodes)
+    rows = []
+    for agent in [n for n in scores if n in trained]:
+        for base in [n for n in scores if n not in trained]:
+            p, low, high = stats.probability_of_improvement(scores[agent], scores[base], True, False)
+            rows.append({"agent": agent, "baseline": base, "p": p, "low": low, "high": high})
+    return pd.DataFrame(rows, columns=["agent", "baseline", "p", "low", "high"])
+
+
+def check_claims(env_id: str, budget: str, episodes: pd.DataFrame) -> list[dict[str, Any]]:
+    """Every claim the env's protocol declares, checked on the scores of ``episodes``."""
+    from gym4real.core.benchmark import protocol
+
+    scores, trained = score_matrices(episodes)
+    return [{"env_id": env_id, "budget": budget, **check_claim(c, scores, trained)} for c in protocol(env_id).claims]
+
+
+def profile_figure(episodes: pd.DataFrame, path: Path, title: str) -> None:
+    """``performance_profile.png``: per policy, the fraction of its (run, episode) scores above each score."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from gym4real.core.plots import LINESTYLES, MARKERS
+
+    scores, trained = score_matrices(episodes)
+    same = identical_to(scores)
+    every = np.concatenate([m.ravel() for m in scores.values()])
+    tau = np.linspace(every.min(), every.max(), PROFILE_POINTS)
+    fig, ax = plt.subplots(figsize=(8.5, 4.2))
+    for i, (name, matrix) in enumerate(scores.items()):
+        point, low, high = stats.profile_band(matrix, name in trained, tau)
+        (line,) = ax.step(
+            tau,
+            point,
+            where="post",
+            label=f"{name} (identical to {same[name]})" if name in same else name,
+            linestyle=LINESTYLES[i % len(LINESTYLES)],
+            marker=MARKERS[i % len(MARKERS)],
+            markersize=4,
+            markevery=(i * 3 % 10, 10),
+        )
+        ax.fill_between(tau, low, high, step="post", color=line.get_color(), alpha=0.12, linewidth=0)
+    ax.set(xlabel="score τ (per-episode objective)", ylabel="fraction of runs x episodes with score > τ")
+    ax.set_ylim(-0.02, 1.02)
+    ax.set_title(f"{title}: performance profile (95 % band)")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, frameon=False)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def analyse(folder: Path, env_id: str, budget: str) -> list[dict[str, Any]]:
+    """Write ``summary.csv``, ``improvement.csv``, ``claims.json`` and the profile figure from ``episodes.csv``."""
+    episodes = pd.read_csv(folder / "episodes.csv")
+    summary(episodes).to_csv(folder / "summary.csv", index=False)
+    improvement(episodes).to_csv(folder / "improvement.csv", index=False)
+    claims = check_claims(env_id, budget, episodes)
+    (folder / "claims.json").write_text(json.dumps(claims, indent=1))
+    profile_figure(episodes, folder / "performance_profile.png", env_id)
+    return claims

@@ -1,0 +1,146 @@
+"""Provenance of reproduced results: the code version, package versions, data files and training runs.
+
+``reproduce`` records, per environment, the code version and the data files its env declares
+(``report.json``) and one row per training run (``runs.csv``); the results page gathers them into
+``manifest.json``. No machine path is recorded: data files by their path inside a data folder.
+"""
+
+from __future__ import annotations
+
+import json
+import platform
+from importlib import metadata
+from typing import Any
+
+import pandas as pd
+
+from gym4real.core.rl.train import TrainingRun
+
+#: Third-party distributions whose versions a result depends on (besides every gym4real distribution).
+DEPENDENCIES = (
+    "gymnasium",
+    "numpy",
+    "scipy",
+    "pandas",
+    "torch",
+    "stable-baselines3",
+    "numba",
+    "mujoco",
+    "owa-epanet",
+)
+
+
+def code_version() -> str:
+    """``git describe --always --dirty`` of the checkout holding this code, else gym4real-core's version."""
+    from gym4real.core.rl import train
+
+    found = train.versions()
+    return found.get("gym4real (git)", f"gym4real-core {found['gym4real-core']} (installed, not a git checkout)")
+
+
+def versions() -> dict[str, str]:
+    """Versions of every gym4real distribution, of :data:`DEPENDENCIES` (``not installed``), and of Python."""
+    found = {
+        dist.metadata["Name"]: dist.version
+        for dist in metadata.distributions()
+        if (dist.metadata["Name"] or "").lower().startswith("gym4real")
+    }
+    for name in DEPENDENCIES:
+        try:
+            found[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            found[name] = "not installed"
+    found["python"] = platform.python_version()
+    return dict(sorted(found.items()))
+
+
+def data_files(env_id: str) -> list[dict[str, str]]:
+    """The data files ``env_id`` declares: name, path in a data folder, SHA-256 (of the copy found, if any).
+
+    Every file an env reads is checked against its registered SHA-256 when it is resolved, so the hash of
+    a file read is the registered one; a file not found here says so (``found: no``).
+    """
+    from gym4real.core.datasets import dataset, find, sha256_of
+    from gym4real.core.registry import registry
+
+    rows = []
+    for name in registry().envs[env_id].datasets:
+        spec, copy = dataset(name), find(name)
+        rows.append(
+            {
+                "name": name,
+                "path": spec.path,
+                "sha256": sha256_of(copy.path) if copy else spec.sha256,
+                "found": copy.where if copy else "no",
+            }
+        )
+    return rows
+
+
+def learning_rate_words(rate: float | dict[str, Any]) -> str:
+    """A learning rate or schedule in words (``cosine(5e-05->0)``, ``kl_adaptive(8e-06, kl_threshold=0.008)``).
+
+    Args:
+        rate: A constant rate, or a schedule ``{"schedule": name, "initial": x, ["final": y,] ...}``.
+
+    Raises:
+        ValueError: ``rate`` is neither.
+    """
+    if isinstance(rate, int | float) and not isinstance(rate, bool):
+        return f"{rate:g}"
+    if isinstance(rate, dict) and "schedule" in rate and "initial" in rate:
+        rest = {k: v for k, v in rate.items() if k not in ("schedule", "initial", "final")}
+        start = f"{rate['initial']:g}" + (f"->{rate['final']:g}" if "final" in rate else "")
+        return f"{rate['schedule']}({', '.join([start, *(f'{k}={v:g}' for k, v in rest.items())])})"
+    raise ValueError(
+        f"learning rate {rate!r} is neither a number nor a schedule {{'schedule': name, 'initial': rate, ...}}"
+    )
+
+
+def learning_rate_of(hp: dict[str, Any]) -> str:
+    """The learning rate of a training preset in words (SB3's ``hyperparams.learning_rate``, tabular ``alpha``)."""
+    rate = hp.get("hyperparams", {}).get("learning_rate", hp.get("alpha", hp.get("learning_rate")))
+    return "-" if rate is None else learning_rate_words(rate)
+
+
+def selected_checkpoint(curve: pd.DataFrame, min_improvement: float = 0.0) -> tuple[int, float] | None:
+    """The validation row a run kept its model from: ``(progress, mean return)``, None without validation.
+
+    A run keeps the model of an evaluation whose mean return beats the best so far by more than
+    ``min_improvement`` (SB3 runs: by any amount), so the kept one is the last such evaluation.
+    """
+    unit = "episodes" if "episodes" in curve.columns else "timesteps"
+    best, kept = float("-inf"), None
+    for progress, mean in zip(curve[unit], curve["mean_return"], strict=True):
+        if mean > best + min_improvement:
+            best, kept = float(mean), (int(progress), float(mean))
+    return kept
+
+
+def runs_table(runs: list[TrainingRun]) -> pd.DataFrame:
+    """``runs.csv``: one row per training run, its budget, cost, learning rate, kept checkpoint and settings."""
+    rows = []
+    for run in sorted(runs, key=lambda r: (r.algo, r.seed)):
+        settings = json.loads((run.model_path.parent / "settings.json").read_text())
+        hp = settings["hyperparameters"]
+        curve = pd.read_csv(run.curve_csv) if run.curve_csv.exists() else pd.DataFrame()
+        kept = selected_checkpoint(curve, float(hp.get("min_improvement", 0.0))) if len(curve) else None
+        rows.append(
+            {
+                "algo": run.algo,
+                "seed": run.seed,
+                "preset": run.preset,
+                "total_timesteps": hp.get("total_timesteps"),
+                "episodes": hp.get("episodes"),
+                "env_steps": run.env_steps,
+                "eval_steps": run.eval_steps,
+                "wall_s": run.wall_time_s,
+                "env_steps_per_s": run.steps_per_s,
+                "learning_rate": learning_rate_of(hp),
+                "selected_unit": "episodes" if "episodes" in curve.columns else "timesteps",
+                "selected_at": kept[0] if kept else None,
+                "selected_validation_return": kept[1] if kept else None,
+                "settings": json.dumps(hp, sort_keys=True),
+            }
+        )
+    return pd.DataFrame(rows)
