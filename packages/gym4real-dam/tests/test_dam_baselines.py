@@ -147,3 +147,11 @@ def test_smoke_training_runs_and_the_model_benchmarks(tmp_path: Path) -> None:
     assert run.model_path.is_file() and run.curve_csv.is_file()
     result = gym4real.benchmark(ENV_ID, [run.policy], env_kwargs={"sim_horizon": 30})
     assert len(result.returns[run.policy]) == 13
+
+
+def test_the_ppo_claim_compares_with_the_rule_based_strategies_and_not_with_random() -> None:
+    from gym4real.core.registry import registry
+
+    (claim,) = registry().benchmarks["gym4real/dam-v0"].claims
+    assert "random" not in claim.others  # a random policy follows no rule
+    assert set(claim.others) == {"mean", "max", "ead"}  # the paper's rules (Sec. 2.1); historical is the record
