@@ -20,6 +20,7 @@ import numpy as np
 
 from gym4real.core.errors import ConfigError, PolicyError
 from gym4real.core.rl.progress import Progress
+from gym4real.core.rl.schedules import KLAdaptive, KLAdaptiveRate, schedule
 
 #: PyTorch's index of CPU-only wheels.
 TORCH_CPU_INDEX = "https://download.pytorch.org/whl/cpu"
@@ -198,6 +199,24 @@ def _load_buffer(buffer: Any, path: Path) -> None:
         buffer.pos, buffer.full = int(data["pos"]), bool(data["full"])
 
 
+def _algorithm(algo_cls: Any, hp: dict[str, Any], venv: Any, seed: int, state: dict[str, Any] | None) -> Any:
+    """The SB3 algorithm of a preset, its learning rate a schedule; a resumed run's adaptive rate restored."""
+    hyperparams = dict(hp["hyperparams"])
+    rate = schedule(hyperparams.pop("learning_rate"))
+    common = {"policy_kwargs": hp.get("policy_kwargs"), "seed": seed, "device": "cpu", "verbose": 0}
+    if isinstance(rate, KLAdaptive):
+        from gym4real.core.rl.kl_adaptive_ppo import KLAdaptivePPO
+
+        restored = KLAdaptiveRate(rate, state["learning_rate"] if state else None)
+        return KLAdaptivePPO(hp.get("policy", "MlpPolicy"), venv, rate=restored, **common, **hyperparams)
+    return algo_cls(hp.get("policy", "MlpPolicy"), venv, learning_rate=rate, **common, **hyperparams)
+
+
+def current_learning_rate(model: Any) -> float:
+    """The rate the model's next update starts from (a resumed run restores an adaptive one from it)."""
+    return float(model.lr_schedule(model._current_progress_remaining))
+
+
 def train_sb3(
     env_id: str, hp: dict[str, Any], seed: int, out: Path, progress: Progress | None = None
 ) -> tuple[Path, dict[str, int]]:
@@ -225,20 +244,13 @@ def train_sb3(
     )
     norm_obs, norm_rew = bool(hp.get("normalize_obs", False)), bool(hp.get("normalize_reward", False))
     if norm_obs or norm_rew:
-        venv = VecNormalize(venv, norm_obs=norm_obs, norm_reward=norm_rew, gamma=hp["hyperparams"].get("gamma", 0.99))
+        gamma = hp["hyperparams"].get("gamma", 0.99)
+        venv = VecNormalize(venv, norm_obs=norm_obs, norm_reward=norm_rew, clip_obs=hp["clip_obs"], gamma=gamma)
     algo_cls = getattr(sb3, ALGOS[algo])
     _check_hyperparams(algo_cls, hp["hyperparams"])
     checkpoint = out / "checkpoint"
     state = json.loads((checkpoint / "state.json").read_text()) if (checkpoint / "state.json").exists() else None
-    model = algo_cls(
-        hp.get("policy", "MlpPolicy"),
-        venv,
-        policy_kwargs=hp.get("policy_kwargs"),
-        seed=seed if state is None else seed + int(state["timesteps"]),
-        device="cpu",
-        verbose=0,
-        **hp.get("hyperparams", {}),
-    )
+    model = _algorithm(algo_cls, hp, venv, seed if state is None else seed + int(state["timesteps"]), state)
     if state is not None:
         # the weights and optimizer states only (torch tensors, no pickle); the counters from state.json
         model.set_parameters(str(checkpoint / "model.zip"), exact_match=True, device="cpu")
@@ -294,6 +306,7 @@ def train_sb3(
                 "best": self.best,
                 "next_eval": self.next_eval,
                 "eval_steps": self.eval_steps,
+                "learning_rate": current_learning_rate(self.model),
             }
             (checkpoint / "state.tmp.json").write_text(json.dumps(record))
             (checkpoint / "state.tmp.json").replace(checkpoint / "state.json")
