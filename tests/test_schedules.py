@@ -8,6 +8,7 @@ import math
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 
 from gym4real.core.errors import ConfigError
@@ -112,10 +113,10 @@ def test_ppo_adapts_its_rate_after_each_epoch_from_sb3s_kl_estimate() -> None:
     pytest.importorskip("stable_baselines3")
     import gymnasium as gym
 
-    from gym4real.core.rl.kl_adaptive_ppo import KLAdaptivePPO
+    from gym4real.core.rl.skrl_ppo import SkrlPPO
 
     spec = KLAdaptive(schedule="kl_adaptive", initial=3e-3, kl_threshold=1e-3, max=1.0)
-    model = KLAdaptivePPO(
+    model = SkrlPPO(
         "MlpPolicy", gym.make("CartPole-v1"), rate=KLAdaptiveRate(spec), n_steps=64, batch_size=16, n_epochs=3, seed=0
     )
     model.learn(total_timesteps=128)
@@ -133,6 +134,7 @@ algo: ppo
 total_timesteps: 1024
 normalize_obs: true
 clip_obs: 5.0
+value_scaler: true
 policy_kwargs: {net_arch: [16, 16], log_std_init: -0.5}
 hyperparams:
   learning_rate: {schedule: kl_adaptive, initial: 8.0e-6, kl_threshold: 0.008}
@@ -147,9 +149,11 @@ eval_episodes: 1
 """
 
 
-def test_a_resumed_kl_adaptive_run_starts_from_its_saved_rate(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_resumed_run_starts_from_its_saved_rate_and_value_statistics(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     pytest.importorskip("stable_baselines3")
-    from gym4real.core.rl import kl_adaptive_ppo
+    from gym4real.core.rl import skrl_ppo
 
     class _Interrupt(Exception):
         pass
@@ -163,18 +167,79 @@ def test_a_resumed_kl_adaptive_run_starts_from_its_saved_rate(tmp_path: Path, mo
     out = tmp_path / "run"
     with pytest.raises(_Interrupt):
         train("gym4real/dam-v0", "ppo", str(preset), seed=0, out=out, progress=stop_after_the_first_checkpoint)
-    saved = json.loads((out / "checkpoint" / "state.json").read_text())["learning_rate"]
+    saved = json.loads((out / "checkpoint" / "state.json").read_text())
     # the checkpoint at 512 steps follows one update of two epochs: at 8e-6 the policy barely moves, its KL
-    # is below the band and the rate has grown
-    assert saved > 8e-6
+    # is below the band and the rate has grown; the value statistics have merged one rollout's values and returns
+    assert saved["learning_rate"] > 8e-6 and saved["value_scaler"][2] == 1 + 2 * 256
 
-    started: list[float] = []
-    original = kl_adaptive_ppo.KLAdaptivePPO.__init__
+    started: list[tuple[float, list[float]]] = []
+    original = skrl_ppo.SkrlPPO.__init__
 
-    def record(self: Any, *args: Any, rate: KLAdaptiveRate, **kwargs: Any) -> None:
-        started.append(rate.rate)
-        original(self, *args, rate=rate, **kwargs)
+    def record(self: Any, *args: Any, rate: KLAdaptiveRate, value_scaler: Any, **kwargs: Any) -> None:
+        started.append((rate.rate, value_scaler.state()))
+        original(self, *args, rate=rate, value_scaler=value_scaler, **kwargs)
 
-    monkeypatch.setattr(kl_adaptive_ppo.KLAdaptivePPO, "__init__", record)
+    monkeypatch.setattr(skrl_ppo.SkrlPPO, "__init__", record)
     run = train("gym4real/dam-v0", "ppo", str(preset), seed=0, out=out)
-    assert started == [saved] and run.env_steps == 1024
+    assert started == [(saved["learning_rate"], saved["value_scaler"])] and run.env_steps == 1024
+
+
+def _merged(groups: list[np.ndarray]) -> tuple[float, float]:
+    """Mean and variance of skrl's prior (one value 0, variance 1) merged with ``groups`` by the law of total
+    variance, each group's own variance taken with Bessel's correction as ``torch.var`` does."""
+    counts = np.array([1.0] + [g.size for g in groups])
+    means = np.array([0.0] + [g.mean() for g in groups])
+    within = np.array([1.0] + [g.var(ddof=1) for g in groups])
+    mean = float(np.sum(counts * means) / counts.sum())
+    return mean, float(np.sum(counts * within + counts * (means - mean) ** 2) / counts.sum())
+
+
+def test_running_standard_scaler_merges_batches_as_skrl() -> None:
+    pytest.importorskip("stable_baselines3")
+    import torch as th
+
+    from gym4real.core.rl.skrl_ppo import RunningStandardScaler
+
+    rng = np.random.default_rng(0)
+    batches = [rng.normal(3.0, 2.0, size=(64, 2)), rng.normal(-1.0, 0.5, size=(32, 2)), rng.normal(7.0, 1.0, 5)]
+    scaler = RunningStandardScaler()
+    for i, batch in enumerate(batches):
+        scaler.update(batch)
+        mean, var = _merged(batches[: i + 1])
+        assert (scaler.mean, scaler.var, scaler.count) == pytest.approx(
+            (mean, var, 1 + sum(b.size for b in batches[: i + 1]))
+        )
+    x = np.array([mean, mean + 100 * np.sqrt(var)], dtype=np.float32)
+    np.testing.assert_allclose(scaler.standardize(x), [0.0, 5.0], atol=1e-6)  # clipped at 5 standard deviations
+    restored = scaler.restore(th.tensor([1.0, -9.0]))
+    np.testing.assert_allclose(restored.numpy(), [mean + np.sqrt(var), mean - 5 * np.sqrt(var)], rtol=1e-6)
+
+
+def test_ppo_value_targets_are_standardised_as_skrls_value_preprocessor() -> None:
+    pytest.importorskip("stable_baselines3")
+    import gymnasium as gym
+    import torch as th
+
+    from gym4real.core.rl.skrl_ppo import RunningStandardScaler, SkrlPPO
+
+    scaler = RunningStandardScaler(mean=10.0, var=4.0, count=50.0)  # a scale the untrained net does not have
+    model = SkrlPPO("MlpPolicy", gym.make("CartPole-v1"), value_scaler=scaler, n_steps=64, batch_size=16, seed=0)
+    model.train = lambda: None  # the rollout only: the value net stays the one that collected it
+    model.learn(total_timesteps=64)
+    buffer = model.rollout_buffer
+    with th.no_grad():
+        net = model.policy.predict_values(th.as_tensor(buffer.observations.reshape(64, -1))).numpy().reshape(64, 1)
+    values = 2.0 * np.clip(net, -5, 5) + 10.0  # the net's outputs in reward units, with the statistics of the rollout
+    returns = buffer.advantages + values  # SB3's returns: the advantages (unscaled) plus the values
+
+    def standardized(x: np.ndarray, mean: float, var: float) -> np.ndarray:
+        return np.clip((x - mean) / (np.sqrt(var) + 1e-8), -5, 5)
+
+    # skrl merges the values first and standardises them, then merges the returns and standardises them
+    first = RunningStandardScaler(10.0, 4.0, 50.0)
+    first.update(values)
+    np.testing.assert_allclose(buffer.values, standardized(values, first.mean, first.var), rtol=1e-4, atol=1e-5)
+    first.update(returns)
+    np.testing.assert_allclose(buffer.returns, standardized(returns, first.mean, first.var), rtol=1e-4, atol=1e-5)
+    assert (scaler.mean, scaler.var, scaler.count) == pytest.approx((first.mean, first.var, 50.0 + 2 * 64))
+    assert "predict_values" not in vars(model.policy)  # the reward-unit values were the rollout's only

@@ -130,6 +130,7 @@ def test_rl_presets_hold_the_papers_hyperparameters() -> None:
     assert (rate["schedule"], rate["initial"], rate["kl_threshold"]) == ("kl_adaptive", 8e-6, 0.008)
     assert (rate["kl_factor"], rate["factor"], rate["min"], rate["max"]) == (2, 1.5, 1e-6, 1e-2)
     assert paper["clip_obs"] == 5.0  # skrl's RunningStandardScaler clips standardised states at 5
+    assert paper["value_scaler"] is True  # and standardises the value targets (value_preprocessor)
     assert paper["seeds"] == [123]
     smoke = load_preset(ENV_ID, "ppo", "smoke")
     assert smoke["total_timesteps"] <= 4000 and smoke["policy_kwargs"] == paper["policy_kwargs"]

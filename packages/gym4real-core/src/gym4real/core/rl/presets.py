@@ -86,6 +86,11 @@ class SB3Preset(_Preset):
     clip_obs: Annotated[float, Field(gt=0)] = Field(
         10.0, description="VecNormalize clips normalised observations to [-clip_obs, clip_obs] (SB3's default 10)."
     )
+    value_scaler: bool = Field(
+        False,
+        description="PPO only: the value network predicts standardised values, its targets standardised with "
+        "running statistics (skrl's RunningStandardScaler as `value_preprocessor`).",
+    )
     policy: str = "MlpPolicy"
     policy_kwargs: dict[str, Any] | None = None
     hyperparams: Hyperparams = Field(default_factory=Hyperparams)
@@ -105,7 +110,10 @@ class SB3Preset(_Preset):
         return self
 
     @model_validator(mode="after")
-    def _learning_rate_fits_the_algorithm(self) -> SB3Preset:
+    def _settings_fit_the_algorithm(self) -> SB3Preset:
+        if self.value_scaler and self.algo != "ppo":
+            algo = self.algo.upper()
+            raise ValueError(f"`value_scaler` standardises PPO's value targets; {algo} has none: remove it")
         rate = self.hyperparams.learning_rate
         if rate is None:
             self.hyperparams.learning_rate = SB3_DEFAULT_LEARNING_RATE[self.algo]

@@ -20,7 +20,7 @@ import numpy as np
 
 from gym4real.core.errors import ConfigError, PolicyError
 from gym4real.core.rl.progress import Progress
-from gym4real.core.rl.schedules import KLAdaptive, KLAdaptiveRate, schedule
+from gym4real.core.rl.schedules import Constant, KLAdaptive, KLAdaptiveRate, schedule
 
 #: PyTorch's index of CPU-only wheels.
 TORCH_CPU_INDEX = "https://download.pytorch.org/whl/cpu"
@@ -200,21 +200,39 @@ def _load_buffer(buffer: Any, path: Path) -> None:
 
 
 def _algorithm(algo_cls: Any, hp: dict[str, Any], venv: Any, seed: int, state: dict[str, Any] | None) -> Any:
-    """The SB3 algorithm of a preset, its learning rate a schedule; a resumed run's adaptive rate restored."""
+    """The SB3 algorithm of a preset, with its learning-rate schedule and value scaler.
+
+    A constant rate goes to SB3 as a number (the model file then holds no pickled schedule); ``kl_adaptive``
+    or ``value_scaler`` make it :class:`~gym4real.core.rl.skrl_ppo.SkrlPPO`, a resumed run's adaptive rate
+    and value statistics restored from the checkpoint's ``state``.
+    """
     hyperparams = dict(hp["hyperparams"])
-    rate = schedule(hyperparams.pop("learning_rate"))
-    common = {"policy_kwargs": hp.get("policy_kwargs"), "seed": seed, "device": "cpu", "verbose": 0}
-    if isinstance(rate, KLAdaptive):
-        from gym4real.core.rl.kl_adaptive_ppo import KLAdaptivePPO
+    lr_schedule = schedule(hyperparams.pop("learning_rate"))
+    rate = lr_schedule.initial if isinstance(lr_schedule, Constant) else lr_schedule
+    policy = hp.get("policy", "MlpPolicy")
+    common: dict[str, Any] = {"policy_kwargs": hp.get("policy_kwargs"), "seed": seed, "device": "cpu", "verbose": 0}
+    if not isinstance(lr_schedule, KLAdaptive) and not hp.get("value_scaler"):
+        return algo_cls(policy, venv, learning_rate=rate, **common, **hyperparams)
+    from gym4real.core.rl.skrl_ppo import RunningStandardScaler, SkrlPPO
 
-        restored = KLAdaptiveRate(rate, state["learning_rate"] if state else None)
-        return KLAdaptivePPO(hp.get("policy", "MlpPolicy"), venv, rate=restored, **common, **hyperparams)
-    return algo_cls(hp.get("policy", "MlpPolicy"), venv, learning_rate=rate, **common, **hyperparams)
+    skrl: dict[str, Any] = {"learning_rate": rate}
+    if isinstance(lr_schedule, KLAdaptive):
+        skrl = {"rate": KLAdaptiveRate(lr_schedule, state["learning_rate"] if state else None)}
+    if hp.get("value_scaler"):
+        skrl["value_scaler"] = RunningStandardScaler(*(state["value_scaler"] if state else ()))
+    return SkrlPPO(policy, venv, **skrl, **common, **hyperparams)
 
 
-def current_learning_rate(model: Any) -> float:
-    """The rate the model's next update starts from (a resumed run restores an adaptive one from it)."""
-    return float(model.lr_schedule(model._current_progress_remaining))
+def algorithm_state(model: Any) -> dict[str, Any]:
+    """What a checkpoint saves beyond the weights for the run to go on as it would have.
+
+    The learning rate its next update starts from (a ``kl_adaptive`` one is history, not progress) and the
+    value scaler's statistics.
+    """
+    state: dict[str, Any] = {"learning_rate": float(model.lr_schedule(model._current_progress_remaining))}
+    if getattr(model, "value_scaler", None) is not None:
+        state["value_scaler"] = model.value_scaler.state()
+    return state
 
 
 def train_sb3(
@@ -306,7 +324,7 @@ def train_sb3(
                 "best": self.best,
                 "next_eval": self.next_eval,
                 "eval_steps": self.eval_steps,
-                "learning_rate": current_learning_rate(self.model),
+                **algorithm_state(self.model),
             }
             (checkpoint / "state.tmp.json").write_text(json.dumps(record))
             (checkpoint / "state.tmp.json").replace(checkpoint / "state.json")
