@@ -124,13 +124,13 @@ def test_rl_presets_hold_the_papers_hyperparameters() -> None:
     assert paper["policy_kwargs"] == {"net_arch": [16, 16], "log_std_init": -0.5}
     hp = paper["hyperparams"]
     # the table's "Batch Size 32" is skrl's mini_batches: 32 mini-batches of 2048 / 32 = 64 transitions
-    assert (hp["n_steps"], hp["batch_size"], hp["n_epochs"], hp["gamma"], hp["learning_rate"]) == (
-        2048,
-        2048 // 32,
-        10,
-        0.995,
-        8e-6,
-    )
+    assert (hp["n_steps"], hp["batch_size"], hp["n_epochs"], hp["gamma"]) == (2048, 2048 // 32, 10, 0.995)
+    # "Learning Rate 8e-6" under the reference's skrl KLAdaptiveRL(kl_threshold=0.008), skrl's other defaults
+    rate = hp["learning_rate"]
+    assert (rate["schedule"], rate["initial"], rate["kl_threshold"]) == ("kl_adaptive", 8e-6, 0.008)
+    assert (rate["kl_factor"], rate["factor"], rate["min"], rate["max"]) == (2, 1.5, 1e-6, 1e-2)
+    assert paper["clip_obs"] == 5.0  # skrl's RunningStandardScaler clips standardised states at 5
+    assert paper["value_scaler"] is True  # and standardises the value targets (value_preprocessor)
     assert paper["seeds"] == [123]
     smoke = load_preset(ENV_ID, "ppo", "smoke")
     assert smoke["total_timesteps"] <= 4000 and smoke["policy_kwargs"] == paper["policy_kwargs"]

@@ -196,8 +196,36 @@ def test_dqn_presets(preset: str) -> None:
     assert (h["gamma"], h["learning_rate"], h["batch_size"], h["train_freq"]) == (0.99, 1e-3, 32, 4)
     assert (h["exploration_fraction"], h["exploration_final_eps"]) == (0.1, 0.05)
     if preset == "paper":
-        assert hp["n_envs"] == 8 and h["buffer_size"] == 1_000_000 and hp["total_timesteps"] == 100 * 168
+        assert hp["n_envs"] == 8 and h["buffer_size"] == 1_000_000
     else:
         assert hp["total_timesteps"] <= 4000 and hp["n_envs"] <= 2
     gym.make(ENV_ID, **hp["env_kwargs"]).close()
     gym.make(ENV_ID, **hp["eval_env_kwargs"]).close()
+
+
+def test_dqn_paper_budget_is_the_references_episode_stopping_rule() -> None:
+    """The reference stops with SB3's StopTrainingOnMaxEpisodes(max_episodes=100) ("# Episodes 100") on 8 envs."""
+    pytest.importorskip("stable_baselines3")
+    from types import SimpleNamespace
+
+    from stable_baselines3.common.callbacks import StopTrainingOnMaxEpisodes
+
+    hp = load_preset(ENV_ID, "dqn", "paper")
+    env = gym.make(ENV_ID, **hp["env_kwargs"])
+    length = 0
+    env.reset(seed=0)
+    truncated = False
+    while not truncated:  # every training episode is truncated after a week of hourly decisions
+        *_, truncated, _ = env.step(env.action_space.sample())
+        length += 1
+    env.close()
+    stop = StopTrainingOnMaxEpisodes(max_episodes=100)
+    stop.init_callback(SimpleNamespace(get_env=lambda: SimpleNamespace(num_envs=hp["n_envs"])))  # type: ignore[arg-type]
+    calls = 0
+    while True:  # SB3 calls back once per step of the vector env: the envs end their episodes together
+        calls += 1
+        stop.locals = {"dones": np.full(hp["n_envs"], calls % length == 0)}
+        if not stop._on_step():
+            break
+    assert stop.n_episodes == 100 * hp["n_envs"]
+    assert hp["total_timesteps"] == calls * hp["n_envs"]

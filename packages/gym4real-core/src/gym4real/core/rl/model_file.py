@@ -28,13 +28,17 @@ TRAINING_STATE = frozenset(
     {"_last_obs", "_last_episode_starts", "_last_original_obs", "ep_info_buffer", "ep_success_buffer"}
 )
 
+#: Settings SB3 pickles when they are schedules rather than numbers (a learning-rate schedule of a preset).
+SCHEDULES = frozenset({"learning_rate", "lr_schedule"})
+
 #: The pickled entries SB3 writes for each algorithm; anything else pickled is refused.
 SERIALIZED_ENTRIES: dict[str, frozenset[str]] = {
     "ppo": TRAINING_STATE
-    | {"policy_class", "observation_space", "action_space", "rollout_buffer_class", "clip_range", "clip_range_vf"}
-    | {"lr_schedule"},
+    | SCHEDULES
+    | {"policy_class", "observation_space", "action_space", "rollout_buffer_class", "clip_range", "clip_range_vf"},
     "dqn": TRAINING_STATE
-    | {"policy_class", "observation_space", "action_space", "replay_buffer_class", "train_freq", "lr_schedule"}
+    | SCHEDULES
+    | {"policy_class", "observation_space", "action_space", "replay_buffer_class", "train_freq"}
     | {"exploration_schedule"},
 }
 
@@ -173,6 +177,7 @@ def custom_objects(
         "observation_space": observation_space,
         "action_space": action_space,
         "lr_schedule": constant,
+        "learning_rate": constant,
         "clip_range": constant,
         "clip_range_vf": None,
         "exploration_schedule": constant,

@@ -15,6 +15,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 from gym4real.core.config import describe_validation_error, read_yaml
 from gym4real.core.errors import ConfigError
 from gym4real.core.registry import env_spec, registry
+from gym4real.core.rl.schedules import SB3_DEFAULT_LEARNING_RATE, LearningRate
 
 ALGOS = ("ppo", "dqn", "qlearning", "sarsa")
 
@@ -58,6 +59,21 @@ class _Preset(BaseModel):
         return self
 
 
+class Hyperparams(BaseModel):
+    """Arguments of the SB3 algorithm's constructor; ``learning_rate`` is a number or a schedule.
+
+    Other keys go to the constructor as they are (the trainer checks their names against it).
+    """
+
+    model_config = ConfigDict(extra="allow", allow_inf_nan=False)
+
+    learning_rate: LearningRate | None = Field(
+        None,
+        description="A positive number, or a schedule: `{schedule: constant|linear|cosine|kl_adaptive, initial: ...}` "
+        "(see `gym4real.core.rl.schedules`); default: the algorithm's SB3 default.",
+    )
+
+
 class SB3Preset(_Preset):
     """PPO or DQN from Stable-Baselines3; ``hyperparams`` go to the algorithm's constructor."""
 
@@ -67,17 +83,45 @@ class SB3Preset(_Preset):
     vec_env: Literal["dummy", "subproc"] = Field("dummy", description="SB3 vector env of the `n_envs` copies.")
     normalize_obs: bool = False
     normalize_reward: bool = False
+    clip_obs: Annotated[float, Field(gt=0)] = Field(
+        10.0, description="VecNormalize clips normalised observations to [-clip_obs, clip_obs] (SB3's default 10)."
+    )
+    value_scaler: bool = Field(
+        False,
+        description="PPO only: the value network predicts standardised values, its targets standardised with "
+        "running statistics (skrl's RunningStandardScaler as `value_preprocessor`).",
+    )
     policy: str = "MlpPolicy"
     policy_kwargs: dict[str, Any] | None = None
-    hyperparams: dict[str, Any] = Field(default_factory=dict)
-    eval_freq: Positive = Field(10_000, description="Timesteps between evaluations.")
+    hyperparams: Hyperparams = Field(default_factory=Hyperparams)
+    eval_freq: Positive = Field(
+        10_000,
+        description="Timesteps between evaluations (all envs together: SB3's callbacks count calls of `n_envs` "
+        "steps, so a reference `eval_freq` of N calls is N * n_envs timesteps here).",
+    )
 
     @model_validator(mode="after")
     def _finite_algorithm_settings(self) -> SB3Preset:
         for name in ("hyperparams", "policy_kwargs"):
-            where = _non_finite(getattr(self, name), name)
+            value = getattr(self, name)
+            where = _non_finite(value.model_extra if isinstance(value, Hyperparams) else value, name)
             if where:
                 raise ValueError(f"`{where}` is not finite (NaN or infinity); give a finite number")
+        return self
+
+    @model_validator(mode="after")
+    def _settings_fit_the_algorithm(self) -> SB3Preset:
+        if self.value_scaler and self.algo != "ppo":
+            algo = self.algo.upper()
+            raise ValueError(f"`value_scaler` standardises PPO's value targets; {algo} has none: remove it")
+        rate = self.hyperparams.learning_rate
+        if rate is None:
+            self.hyperparams.learning_rate = SB3_DEFAULT_LEARNING_RATE[self.algo]
+        elif self.algo != "ppo" and getattr(rate, "schedule", None) == "kl_adaptive":
+            raise ValueError(
+                "`hyperparams.learning_rate`: `kl_adaptive` adapts PPO's rate after each epoch of its update, and "
+                f"{self.algo.upper()} has no epochs; give a number or a constant, linear or cosine schedule"
+            )
         return self
 
 

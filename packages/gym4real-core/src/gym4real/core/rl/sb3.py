@@ -20,6 +20,7 @@ import numpy as np
 
 from gym4real.core.errors import ConfigError, PolicyError
 from gym4real.core.rl.progress import Progress
+from gym4real.core.rl.schedules import Constant, KLAdaptive, KLAdaptiveRate, schedule
 
 #: PyTorch's index of CPU-only wheels.
 TORCH_CPU_INDEX = "https://download.pytorch.org/whl/cpu"
@@ -198,6 +199,42 @@ def _load_buffer(buffer: Any, path: Path) -> None:
         buffer.pos, buffer.full = int(data["pos"]), bool(data["full"])
 
 
+def _algorithm(algo_cls: Any, hp: dict[str, Any], venv: Any, seed: int, state: dict[str, Any] | None) -> Any:
+    """The SB3 algorithm of a preset, with its learning-rate schedule and value scaler.
+
+    A constant rate goes to SB3 as a number (the model file then holds no pickled schedule); ``kl_adaptive``
+    or ``value_scaler`` make it :class:`~gym4real.core.rl.skrl_ppo.SkrlPPO`, a resumed run's adaptive rate
+    and value statistics restored from the checkpoint's ``state``.
+    """
+    hyperparams = dict(hp["hyperparams"])
+    lr_schedule = schedule(hyperparams.pop("learning_rate"))
+    rate = lr_schedule.initial if isinstance(lr_schedule, Constant) else lr_schedule
+    policy = hp.get("policy", "MlpPolicy")
+    common: dict[str, Any] = {"policy_kwargs": hp.get("policy_kwargs"), "seed": seed, "device": "cpu", "verbose": 0}
+    if not isinstance(lr_schedule, KLAdaptive) and not hp.get("value_scaler"):
+        return algo_cls(policy, venv, learning_rate=rate, **common, **hyperparams)
+    from gym4real.core.rl.skrl_ppo import RunningStandardScaler, SkrlPPO
+
+    skrl: dict[str, Any] = {"learning_rate": rate}
+    if isinstance(lr_schedule, KLAdaptive):
+        skrl = {"rate": KLAdaptiveRate(lr_schedule, state["learning_rate"] if state else None)}
+    if hp.get("value_scaler"):
+        skrl["value_scaler"] = RunningStandardScaler(*(state["value_scaler"] if state else ()))
+    return SkrlPPO(policy, venv, **skrl, **common, **hyperparams)
+
+
+def algorithm_state(model: Any) -> dict[str, Any]:
+    """What a checkpoint saves beyond the weights for the run to go on as it would have.
+
+    The learning rate its next update starts from (a ``kl_adaptive`` one is history, not progress) and the
+    value scaler's statistics.
+    """
+    state: dict[str, Any] = {"learning_rate": float(model.lr_schedule(model._current_progress_remaining))}
+    if getattr(model, "value_scaler", None) is not None:
+        state["value_scaler"] = model.value_scaler.state()
+    return state
+
+
 def train_sb3(
     env_id: str, hp: dict[str, Any], seed: int, out: Path, progress: Progress | None = None
 ) -> tuple[Path, dict[str, int]]:
@@ -225,20 +262,13 @@ def train_sb3(
     )
     norm_obs, norm_rew = bool(hp.get("normalize_obs", False)), bool(hp.get("normalize_reward", False))
     if norm_obs or norm_rew:
-        venv = VecNormalize(venv, norm_obs=norm_obs, norm_reward=norm_rew, gamma=hp["hyperparams"].get("gamma", 0.99))
+        gamma = hp["hyperparams"].get("gamma", 0.99)
+        venv = VecNormalize(venv, norm_obs=norm_obs, norm_reward=norm_rew, clip_obs=hp["clip_obs"], gamma=gamma)
     algo_cls = getattr(sb3, ALGOS[algo])
     _check_hyperparams(algo_cls, hp["hyperparams"])
     checkpoint = out / "checkpoint"
     state = json.loads((checkpoint / "state.json").read_text()) if (checkpoint / "state.json").exists() else None
-    model = algo_cls(
-        hp.get("policy", "MlpPolicy"),
-        venv,
-        policy_kwargs=hp.get("policy_kwargs"),
-        seed=seed if state is None else seed + int(state["timesteps"]),
-        device="cpu",
-        verbose=0,
-        **hp.get("hyperparams", {}),
-    )
+    model = _algorithm(algo_cls, hp, venv, seed if state is None else seed + int(state["timesteps"]), state)
     if state is not None:
         # the weights and optimizer states only (torch tensors, no pickle); the counters from state.json
         model.set_parameters(str(checkpoint / "model.zip"), exact_match=True, device="cpu")
@@ -294,6 +324,7 @@ def train_sb3(
                 "best": self.best,
                 "next_eval": self.next_eval,
                 "eval_steps": self.eval_steps,
+                **algorithm_state(self.model),
             }
             (checkpoint / "state.tmp.json").write_text(json.dumps(record))
             (checkpoint / "state.tmp.json").replace(checkpoint / "state.json")
