@@ -11,7 +11,7 @@ from scipy import stats as sps
 
 from gym4real.core import stats
 from gym4real.core.rl.claims import check_claim
-from gym4real.core.rl.provenance import learning_rate_words, selected_checkpoint
+from gym4real.core.rl.provenance import selected_checkpoint
 from gym4real.core.specs import Claim
 
 REPS = 40_000
@@ -199,15 +199,6 @@ def test_claims_declare_what_their_relation_needs() -> None:
         Claim("x beats y", "x", "above", ("y",), margin=1.0)
     with pytest.raises(ValueError, match="consistently"):
         Claim("x is steadier", "x", "less_variable", ("y",), consistently=True)
-
-
-def test_learning_rates_in_words() -> None:
-    assert learning_rate_words(3e-4) == "0.0003"
-    assert learning_rate_words({"schedule": "cosine", "initial": 5e-5, "final": 0}) == "cosine(5e-05->0)"
-    words = learning_rate_words({"schedule": "kl_adaptive", "initial": 8e-6, "kl_threshold": 0.008})
-    assert words == "kl_adaptive(8e-06, kl_threshold=0.008)"
-    with pytest.raises(ValueError, match="schedule"):
-        learning_rate_words("fast")  # type: ignore[arg-type]
 
 
 def test_the_selected_checkpoint_is_the_validation_row_the_run_kept() -> None:

@@ -10,10 +10,10 @@ from __future__ import annotations
 import json
 import platform
 from importlib import metadata
-from typing import Any
 
 import pandas as pd
 
+from gym4real.core.rl.schedules import learning_rate_words
 from gym4real.core.rl.train import TrainingRun
 
 #: Third-party distributions whose versions a result depends on (besides every gym4real distribution).
@@ -77,32 +77,6 @@ def data_files(env_id: str) -> list[dict[str, str]]:
     return rows
 
 
-def learning_rate_words(rate: float | dict[str, Any]) -> str:
-    """A learning rate or schedule in words (``cosine(5e-05->0)``, ``kl_adaptive(8e-06, kl_threshold=0.008)``).
-
-    Args:
-        rate: A constant rate, or a schedule ``{"schedule": name, "initial": x, ["final": y,] ...}``.
-
-    Raises:
-        ValueError: ``rate`` is neither.
-    """
-    if isinstance(rate, int | float) and not isinstance(rate, bool):
-        return f"{rate:g}"
-    if isinstance(rate, dict) and "schedule" in rate and "initial" in rate:
-        rest = {k: v for k, v in rate.items() if k not in ("schedule", "initial", "final")}
-        start = f"{rate['initial']:g}" + (f"->{rate['final']:g}" if "final" in rate else "")
-        return f"{rate['schedule']}({', '.join([start, *(f'{k}={v:g}' for k, v in rest.items())])})"
-    raise ValueError(
-        f"learning rate {rate!r} is neither a number nor a schedule {{'schedule': name, 'initial': rate, ...}}"
-    )
-
-
-def learning_rate_of(hp: dict[str, Any]) -> str:
-    """The learning rate of a training preset in words (SB3's ``hyperparams.learning_rate``, tabular ``alpha``)."""
-    rate = hp.get("hyperparams", {}).get("learning_rate", hp.get("alpha", hp.get("learning_rate")))
-    return "-" if rate is None else learning_rate_words(rate)
-
-
 def selected_checkpoint(curve: pd.DataFrame, min_improvement: float = 0.0) -> tuple[int, float] | None:
     """The validation row a run kept its model from: ``(progress, mean return)``, None without validation.
 
@@ -136,7 +110,7 @@ def runs_table(runs: list[TrainingRun]) -> pd.DataFrame:
                 "eval_steps": run.eval_steps,
                 "wall_s": run.wall_time_s,
                 "env_steps_per_s": run.steps_per_s,
-                "learning_rate": learning_rate_of(hp),
+                "learning_rate": learning_rate_words(hp),
                 "selected_unit": "episodes" if "episodes" in curve.columns else "timesteps",
                 "selected_at": kept[0] if kept else None,
                 "selected_validation_return": kept[1] if kept else None,
