@@ -12,7 +12,7 @@ from gymnasium.vector.utils import batch_space
 
 from gym4real.core.actions import box_actions
 from gym4real.core.errors import ConfigError
-from gym4real.core.vector import check_max_episode_steps, copy_generators
+from gym4real.core.vector import check_max_episode_steps, copy_generators, per_copy, with_masks
 from gym4real.dam.config import DamConfig
 from gym4real.dam.env import _RESET_OPTIONS, COMPONENTS, RELEASE, DamEnv
 
@@ -190,22 +190,12 @@ class DamVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
             "reward_components": {k: np.zeros(n) for k in COMPONENTS},
             "cost": np.zeros(n),
         }
-        return self._observe(), info
-
-    def _per_copy(self, value: Any, name: str) -> np.ndarray:
-        arr = np.asarray(value)
-        if arr.ndim == 0:
-            arr = np.full(self.num_envs, arr)
-        if arr.shape != (self.num_envs,):
-            raise ValueError(
-                f"reset option `{name}` must be one value or {self.num_envs} (one per copy), not {value!r}"
-            )
-        return arr
+        return self._observe(), with_masks(info, n)
 
     def _select_years(self, seed: int | None, options: dict[str, Any]) -> np.ndarray:
         years, copies = self.single.years, np.arange(self.num_envs)
         if options.get("year") is not None:
-            wanted = self._per_copy(options["year"], "year").tolist()
+            wanted = per_copy(options["year"], self.num_envs, "year").tolist()
             bad = [y for y in dict.fromkeys(wanted) if y not in years]
             if bad:
                 raise ValueError(f"reset option `year`: {bad} are not years of this env {list(years)}")
@@ -229,7 +219,7 @@ class DamVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
     def _init_levels(self, value: Any) -> np.ndarray:
         if value is None:
             return np.full(self.num_envs, self.config.lake.init_level)
-        levels = self._per_copy(value, "init_level").astype(np.float64)
+        levels = per_copy(value, self.num_envs, "init_level").astype(np.float64)
         for level in np.unique(levels):
             if not np.isfinite(level):
                 raise ValueError(f"reset option `init_level` must hold finite levels in m, not {level}")
@@ -342,7 +332,7 @@ class DamVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         }
         if t >= s._H:
             info["recorded_level_rmse"] = np.sqrt(self._squared_gap / t)
-        return self._observe(), reward, np.zeros(n, dtype=bool), np.full(n, truncated), info
+        return self._observe(), reward, np.zeros(n, dtype=bool), np.full(n, truncated), with_masks(info, n)
 
 
 def pairwise_column_sums(values: np.ndarray) -> np.ndarray:

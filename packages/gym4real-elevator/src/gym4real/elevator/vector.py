@@ -12,7 +12,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from gym4real.core.actions import discrete_actions
-from gym4real.core.vector import check_max_episode_steps, copy_generators
+from gym4real.core.vector import check_max_episode_steps, copy_generators, with_masks
 from gym4real.elevator import arrivals
 from gym4real.elevator.config import ElevatorConfig
 from gym4real.elevator.env import ACTIONS, DOWN, OPEN, UP, ElevatorEnv
@@ -139,4 +139,4 @@ class ElevatorVectorEnv(VectorEnv[dict[str, Any], np.ndarray, np.ndarray]):
         done = self._t >= self.config.duration or self._t == self.max_episode_steps
         self._needs_reset = done
         info = {"reward_components": {"delivery": delivery.astype(float), "waiting": waiting}}
-        return self._obs(), delivery + waiting, np.zeros(n, dtype=bool), np.full(n, done), info
+        return self._obs(), delivery + waiting, np.zeros(n, dtype=bool), np.full(n, done), with_masks(info, n)
