@@ -1,7 +1,8 @@
 """Speed relative to Gymnasium's CartPole, measured interleaved in one process (the regression guard).
 
-Two measures, each the median over ``--rounds`` rounds of one timed block of the reference and one of
-the env back to back (so a machine whose load changes slows both alike):
+Two measures, each timed over ``--rounds`` rounds of one block of the reference and one of the env back
+to back (so a machine whose load changes slows both alike); reported: the median of the rounds' ratios
+with its quartiles, and the ratio of the fastest blocks (``best``, the least disturbed by other load):
 
 * ``step_time``: seconds per step of ``gymnasium.make(id)`` over those of ``gymnasium.make("CartPole-v1")``,
   random actions drawn beforehand, resetting at episode ends (lower is faster);
@@ -10,9 +11,9 @@ the env back to back (so a machine whose load changes slows both alike):
   (higher is faster).
 
 Each row gives the goal of issue 25 where there is one and whether the median meets it. On a loaded machine
-the ratios move from run to run: compare medians of repeated runs.
+the ratios move from run to run: compare medians of repeated runs, and the ``best`` column.
 
-    python benchmarks/bench_ratios.py [--ids gym4real/dam-v0,...] [--rounds 7] [--steps 2000] [--json out.json]
+    python benchmarks/bench_ratios.py [--ids gym4real/dam-v0,...] [--rounds 31] [--steps 500] [--json out.json]
 """
 
 from __future__ import annotations
@@ -39,17 +40,18 @@ NATIVE_THROUGHPUT_GOALS = {
 }
 
 
-def interleaved(reference: Callable[[], Any], candidate: Callable[[], Any], rounds: int) -> list[float]:
-    """Per round, the candidate's time over the reference's, timing one block of each back to back."""
-    ratios = []
+def interleaved(reference: Callable[[], Any], candidate: Callable[[], Any], rounds: int) -> tuple[list[float], list[float]]:
+    """The times of ``rounds`` blocks of the reference and of the candidate, each round timing one of each back to back."""
+    ref, cand = [], []
     for _ in range(rounds):
         t0 = time.perf_counter()
         reference()
         t1 = time.perf_counter()
         candidate()
         t2 = time.perf_counter()
-        ratios.append((t2 - t1) / (t1 - t0))
-    return ratios
+        ref.append(t1 - t0)
+        cand.append(t2 - t1)
+    return ref, cand
 
 
 def _stepper(env: gym.Env[Any, Any], steps: int, seed: int) -> Callable[[], None]:
@@ -80,17 +82,23 @@ def _vector_stepper(env: gym.vector.VectorEnv[Any, Any, Any], steps: int, seed: 
     return run
 
 
-def _row(env_id: str, measure: str, ratios: list[float], goal: float | None, higher_is_better: bool) -> dict[str, Any]:
+def _row(
+    env_id: str, measure: str, times: tuple[list[float], list[float]], goal: float | None, higher_is_better: bool
+) -> dict[str, Any]:
+    """The ratios of one measure: the median of the rounds' ratios and the ratio of the fastest blocks."""
+    ref, cand = times
+    ratios = [r / c if higher_is_better else c / r for r, c in zip(ref, cand, strict=True)]  # per round
     median = statistics.median(ratios)
-    met = "" if goal is None else str(median >= goal if higher_is_better else median <= goal)
+    best = min(ref) / min(cand) if higher_is_better else min(cand) / min(ref)  # the least disturbed blocks
     return {
         "env": env_id,
         "measure": measure,
         "median": median,
-        "min": min(ratios),
-        "max": max(ratios),
+        "q1": statistics.quantiles(ratios, n=4)[0],
+        "q3": statistics.quantiles(ratios, n=4)[2],
+        "best": best,
         "goal": "" if goal is None else (">= " if higher_is_better else "<= ") + f"{goal:g}",
-        "met": met,
+        "met": "" if goal is None else str(median >= goal if higher_is_better else median <= goal),
     }
 
 
@@ -99,10 +107,10 @@ def step_time_ratio(env_id: str, steps: int, rounds: int) -> dict[str, Any]:
     cartpole, env = gym.make("CartPole-v1"), gym.make(env_id)
     reference, candidate = _stepper(cartpole, steps, 0), _stepper(env, steps, 0)
     candidate()  # warm: caches filled, first episodes drawn
-    ratios = interleaved(reference, candidate, rounds)
+    times = interleaved(reference, candidate, rounds)
     cartpole.close()
     env.close()
-    return _row(env_id, "step_time", ratios, STEP_TIME_GOALS.get(env_id), higher_is_better=False)
+    return _row(env_id, "step_time", times, STEP_TIME_GOALS.get(env_id), higher_is_better=False)
 
 
 def native_throughput_ratio(env_id: str, copies: int, steps: int, rounds: int) -> dict[str, Any] | None:
@@ -113,19 +121,19 @@ def native_throughput_ratio(env_id: str, copies: int, steps: int, rounds: int) -
     native = gym.make_vec(env_id, num_envs=copies, vectorization_mode="vector_entry_point")
     reference, candidate = _vector_stepper(cartpole, steps, 0), _vector_stepper(native, steps, 0)
     candidate()  # warm
-    ratios = [1.0 / r for r in interleaved(reference, candidate, rounds)]  # time ratio -> throughput ratio
+    times = interleaved(reference, candidate, rounds)
     cartpole.close()
     native.close()
-    return _row(env_id, f"native_throughput ({copies} copies)", ratios, NATIVE_THROUGHPUT_GOALS.get(env_id), True)
+    return _row(env_id, f"native_throughput ({copies} copies)", times, NATIVE_THROUGHPUT_GOALS.get(env_id), True)
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--ids", default="", help="comma-separated ids (default: every installed env)")
-    parser.add_argument("--rounds", type=int, default=7, help="interleaved rounds; the median is reported")
-    parser.add_argument("--steps", type=int, default=2000, help="single-env steps per timed block")
+    parser.add_argument("--rounds", type=int, default=31, help="interleaved rounds; the median is reported")
+    parser.add_argument("--steps", type=int, default=500, help="single-env steps per timed block")
     parser.add_argument("--copies", type=int, default=1024, help="copies of the native batched envs")
-    parser.add_argument("--batch-steps", type=int, default=100, help="batched steps per timed block")
+    parser.add_argument("--batch-steps", type=int, default=20, help="batched steps per timed block")
     parser.add_argument("--no-single", action="store_true", help="only the native batched envs")
     parser.add_argument("--no-native", action="store_true", help="only the single envs")
     parser.add_argument("--json", help="also write the rows to this JSON file")
@@ -138,7 +146,7 @@ def main() -> None:
         native = None if args.no_native else native_throughput_ratio(env_id, args.copies, args.batch_steps, args.rounds)
         if native is not None:
             rows.append(native)
-    report(rows, ["env", "measure", "median", "min", "max", "goal", "met"], 3, args.json)
+    report(rows, ["env", "measure", "median", "q1", "q3", "best", "goal", "met"], 3, args.json)
 
 
 if __name__ == "__main__":
