@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib
 import operator
 from typing import Any
 
@@ -68,3 +69,25 @@ def with_masks(info: dict[str, Any], num_envs: int, present: np.ndarray | None =
         masked[key] = with_masks(value, num_envs, present) if isinstance(value, dict) else value
         masked[f"_{key}"] = np.ones(num_envs, dtype=bool) if present is None else present.copy()
     return masked
+
+
+def compiled_kernel(module: str, name: str, compiled: bool | None, install: str) -> Any:
+    """A native batched env's compiled step (numba), or None for its numpy path (the same numbers).
+
+    Args:
+        module: The module holding the compiled function (it imports numba).
+        name: The function's name.
+        compiled: True requires numba, False takes numpy, None takes numba where it is installed.
+        install: The pip command that installs numba for this env, for the error.
+
+    Raises:
+        ImportError: ``compiled=True`` without numba, naming ``install``.
+    """
+    if compiled is False:
+        return None
+    try:
+        return getattr(importlib.import_module(module), name)
+    except ImportError:
+        if compiled:
+            raise ImportError(f"compiled=True needs numba: `{install}` (or compiled=None for numpy)") from None
+        return None

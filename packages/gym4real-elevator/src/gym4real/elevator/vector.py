@@ -12,25 +12,10 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from gym4real.core.actions import discrete_actions
-from gym4real.core.vector import check_max_episode_steps, copy_generators, with_masks
+from gym4real.core.vector import check_max_episode_steps, compiled_kernel, copy_generators, with_masks
 from gym4real.elevator import arrivals
 from gym4real.elevator.config import ElevatorConfig
 from gym4real.elevator.env import ACTIONS, DOWN, OPEN, UP, ElevatorEnv
-
-
-def _compiled_step(compiled: bool | None) -> Any:
-    """The compiled step of the copies (numba), or None for numpy: ``compiled`` None means "if installed"."""
-    if compiled is False:
-        return None
-    try:
-        from gym4real.elevator.vector_kernel import step_copies
-    except ImportError:
-        if compiled:
-            raise ImportError(
-                "compiled=True needs numba: `pip install gym4real-elevator[fast]` (or compiled=None for numpy)"
-            ) from None
-        return None
-    return step_copies
 
 
 class ElevatorVectorEnv(VectorEnv[dict[str, Any], np.ndarray, np.ndarray]):
@@ -77,7 +62,9 @@ class ElevatorVectorEnv(VectorEnv[dict[str, Any], np.ndarray, np.ndarray]):
         s = self.single
         self._served = np.array(s._served_floors, dtype=np.int64)
         self._limits = (int(s._top), int(s._ppf), int(s._goal), int(s._cap), int(s._max_q))
-        self._kernel = _compiled_step(compiled)
+        self._kernel = compiled_kernel(
+            "gym4real.elevator.vector_kernel", "step_copies", compiled, "pip install gym4real-elevator[fast]"
+        )
         self._rows = np.arange(num_envs)
         self._rngs: list[np.random.Generator] | None = None
         self._needs_reset = False
