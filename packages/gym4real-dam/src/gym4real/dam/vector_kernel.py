@@ -13,6 +13,28 @@ from numba import njit
 
 
 @njit(cache=True)
+def _release(h: float, wanted: float, lake: tuple[float, ...]) -> float:
+    """The release at level ``h``: 0 up to l_min, else ``min(q_max(h), wanted)`` (``q_max(h)`` above l_max)."""
+    area, lmin, lmax, llim, k, c, alpha, beta, cr, dt = lake
+    if h <= lmin:
+        return 0.0
+    q_max = h * k + c if h <= llim else ((h - alpha) ** beta) * cr
+    return q_max if h > lmax or q_max < wanted else wanted
+
+
+@njit(cache=True)
+def _constant(h: float, wanted: float, lake: tuple[float, ...]) -> int:
+    """Which constant release level ``h`` gives: 0 (nothing, up to l_min), 1 (``wanted``, below the linear limit),
+    2 (``wanted``, on the rating curve), or -1 (a release that follows the level)."""
+    area, lmin, lmax, llim, k, c, alpha, beta, cr, dt = lake
+    if h <= lmin:
+        return 0
+    if h > lmax or _release(h, wanted, lake) != wanted:
+        return -1
+    return 1 if h <= llim else 2
+
+
+@njit(cache=True)
 def integrate_copies(
     storage: np.ndarray,
     wanted: np.ndarray,
@@ -24,6 +46,12 @@ def integrate_copies(
 ) -> None:
     """Integrate every copy's day: ``storage`` updated in place, each sub-step's release in ``releases``.
 
+    Per sub-step, as the numpy path: ``h = s / A + l_min``, the release (:func:`_release`) and
+    ``s += dt ((inflow - release) - evaporation)``. A day whose first and last sub-steps release the same
+    constant (nothing, or the wanted release on the same branch of ``q_max``) releases it in every
+    sub-step: the level moves monotonically and the rounded ``q_max`` is monotone in it within a branch,
+    so only those two sub-steps evaluate the release.
+
     Args:
         storage: Each copy's storage (m3), updated.
         wanted: ``max(q_min, decision)`` per copy (m3/s).
@@ -32,19 +60,34 @@ def integrate_copies(
         evaporates: Whether any evaporation is subtracted (the numpy path's ``_evaporation``).
         releases: Out, ``(sub-steps, copies)``: the release of every sub-step.
     """
-    area, lmin, lmax, llim, k, c, alpha, beta, cr, dt = lake
+    area, lmin, dt = lake[0], lake[1], lake[9]
+    substeps = releases.shape[0]
+    others = np.empty(storage.size, dtype=np.int64)  # the copies whose release follows the level
+    n_others = 0
     for i in range(storage.size):
-        s = storage[i]
-        for j in range(releases.shape[0]):
-            h = s / area + lmin
-            if h <= lmin:
-                r = 0.0
-            else:
-                q_max = h * k + c if h <= llim else ((h - alpha) ** beta) * cr
-                r = q_max if h > lmax or q_max < wanted[i] else wanted[i]
+        s0, m = storage[i], wanted[i]
+        first = _constant(s0 / area + lmin, m, lake)
+        if first >= 0:
+            r = m if first > 0 else 0.0
+            net = inflow[i] - r
+            if evaporates:
+                net -= evaporation[i]
+            step = net * dt
+            s = s0
+            for _ in range(substeps - 1):
+                s += step
+            if _constant(s / area + lmin, m, lake) == first:
+                releases[:, i] = r
+                storage[i] = s + step
+                continue
+        others[n_others] = i
+        n_others += 1
+    for j in range(substeps):  # sub-step by sub-step across the copies: independent work, no waiting on one chain
+        for o in range(n_others):
+            i = others[o]
+            r = _release(storage[i] / area + lmin, wanted[i], lake)
             releases[j, i] = r
             net = inflow[i] - r
             if evaporates:
                 net -= evaporation[i]
-            s += net * dt
-        storage[i] = s
+            storage[i] += net * dt
