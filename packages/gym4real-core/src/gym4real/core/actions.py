@@ -104,7 +104,7 @@ def discrete_actions(actions: Any, space: spaces.Space[Any], num_envs: int, mean
     if (
         type(space) is spaces.Discrete
         and type(actions) is np.ndarray
-        and actions.dtype.kind in _INTEGER_KINDS
+        and (actions.dtype.kind == "i" or (actions.dtype.kind == "u" and actions.dtype.itemsize < 8))
         and actions.shape == (num_envs,)
         and num_envs > 0
     ):  # the usual case: one reduction (below the start wraps around to a huge unsigned number)
@@ -122,12 +122,12 @@ def discrete_actions(actions: Any, space: spaces.Space[Any], num_envs: int, mean
         raise _refuse(actions, space, problem, expected)
     if arr.size != num_envs or _squeezed(arr.shape) != _squeezed((num_envs,)):
         raise _refuse(actions, space, f"shape {arr.shape}, not ({num_envs},)", expected)
-    values = arr.reshape(num_envs).astype(np.int64)
-    bad = (values < low) | (values > high)
+    flat = arr.reshape(num_envs)
+    bad = (flat < low) | (flat > high)  # compared before the int64 copy, which would wrap a huge uint64 around
     if bad.any():
-        problem = f"{values[bad].tolist()} outside [{low}, {high}]"
+        problem = f"{flat[bad].tolist()} outside [{low}, {high}]"
         raise _refuse(actions, space, problem, meaning, copies=f" (copies {np.flatnonzero(bad).tolist()})")
-    return values
+    return flat.astype(np.int64)
 
 
 def _squeezed(shape: tuple[int, ...]) -> tuple[int, ...]:
