@@ -45,8 +45,10 @@ NATIVE_THROUGHPUT_GOALS = {
 }
 
 
-def interleaved(reference: Callable[[], Any], candidate: Callable[[], Any], rounds: int) -> tuple[list[float], list[float]]:
-    """The times of ``rounds`` blocks of the reference and of the candidate, each round timing one of each back to back."""
+def interleaved(
+    reference: Callable[[], Any], candidate: Callable[[], Any], rounds: int
+) -> tuple[list[float], list[float]]:
+    """Seconds of ``rounds`` blocks of the reference and of the candidate, one of each per round, back to back."""
     ref, cand = [], []
     for _ in range(rounds):
         t0 = time.perf_counter()

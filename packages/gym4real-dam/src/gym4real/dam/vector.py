@@ -126,10 +126,18 @@ class DamVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
             lake.C_r,
         )
         self._dt, self._substeps = lake.dt, lake.substeps
-        self._lake = tuple(
-            float(v)
-            for v in (self._area, self._lmin, self._lmax, self._llim, self._k, self._c, self._alpha, self._beta)
-        ) + (float(self._cr), float(self._dt))
+        self._lake = (  # the compiled day's constants, in its order
+            float(self._area),
+            float(self._lmin),
+            float(self._lmax),
+            float(self._llim),
+            float(self._k),
+            float(self._c),
+            float(self._alpha),
+            float(self._beta),
+            float(self._cr),
+            float(self._dt),
+        )
         self._sin, self._cos = np.array(s._sin), np.array(s._cos)
 
     def _start(self, year_index: np.ndarray, level: np.ndarray) -> None:

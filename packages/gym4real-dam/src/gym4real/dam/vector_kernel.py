@@ -15,7 +15,7 @@ from numba import njit
 @njit(cache=True)
 def _release(h: float, wanted: float, lake: tuple[float, ...]) -> float:
     """The release at level ``h``: 0 up to l_min, else ``min(q_max(h), wanted)`` (``q_max(h)`` above l_max)."""
-    area, lmin, lmax, llim, k, c, alpha, beta, cr, dt = lake
+    lmin, lmax, llim, k, c, alpha, beta, cr = lake[1], lake[2], lake[3], lake[4], lake[5], lake[6], lake[7], lake[8]
     if h <= lmin:
         return 0.0
     q_max = h * k + c if h <= llim else ((h - alpha) ** beta) * cr
@@ -24,9 +24,13 @@ def _release(h: float, wanted: float, lake: tuple[float, ...]) -> float:
 
 @njit(cache=True)
 def _constant(h: float, wanted: float, lake: tuple[float, ...]) -> int:
-    """Which constant release level ``h`` gives: 0 (nothing, up to l_min), 1 (``wanted``, below the linear limit),
-    2 (``wanted``, on the rating curve), or -1 (a release that follows the level)."""
-    area, lmin, lmax, llim, k, c, alpha, beta, cr, dt = lake
+    """Which constant release level ``h`` gives, if any.
+
+    Returns:
+        0 (nothing, up to l_min), 1 (``wanted``, up to the linear limit), 2 (``wanted``, on the rating
+        curve), or -1 (a release that follows the level).
+    """
+    lmin, lmax, llim = lake[1], lake[2], lake[3]
     if h <= lmin:
         return 0
     if h > lmax or _release(h, wanted, lake) != wanted:
@@ -55,7 +59,8 @@ def integrate_copies(
     Args:
         storage: Each copy's storage (m3), updated.
         wanted: ``max(q_min, decision)`` per copy (m3/s).
-        inflow, evaporation: The day's flows per copy (m3/s).
+        inflow: The day's inflow per copy (m3/s).
+        evaporation: The day's evaporation per copy (m3/s).
         lake: Surface, l_min, l_max, l_lim, linear slope and intercept, alpha, beta, C_r, dt.
         evaporates: Whether any evaporation is subtracted (the numpy path's ``_evaporation``).
         releases: Out, ``(sub-steps, copies)``: the release of every sub-step.

@@ -30,7 +30,9 @@ def step_copies(
 
     Args:
         actions: One action per copy (``DOWN``, ``OPEN`` or ``UP``).
-        pos, load, queues: Each copy's position (sub-floor steps), passengers aboard and queue per floor; updated.
+        pos: Each copy's position (in movement steps), updated.
+        load: Each copy's passengers aboard, updated.
+        queues: Each copy's queue per floor ``(copies, floors)``, updated.
         arrivals: This second's arrivals per copy and served floor.
         served_floors: The floor of each column of ``arrivals``.
         limits: Top position, positions per floor, goal floor, cabin capacity, queue capacity.

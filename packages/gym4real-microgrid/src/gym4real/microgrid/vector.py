@@ -540,6 +540,8 @@ class MicrogridVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         self._autoreset = terminated | truncated
         reward = comps["trading"] + comps["degradation"] + comps["clipping"]
         # the copies restarted now report these from their reset, as the single env's reset info has them
-        info = with_masks({"reward_components": comps, "pure_components": pure, "cost": cost, "soc": soc, "soh": soh}, n)
+        info = with_masks(
+            {"reward_components": comps, "pure_components": pure, "cost": cost, "soc": soc, "soh": soh}, n
+        )
         info.update(with_masks({"temperature": temperature, "energy": energy}, n, present=~reset))  # only a step's
         return obs, reward, terminated, truncated, info
