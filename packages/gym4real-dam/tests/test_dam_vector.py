@@ -1,5 +1,6 @@
 from __future__ import annotations
 
+import importlib.util
 from pathlib import Path
 from typing import Any
 
@@ -12,6 +13,8 @@ from gym4real.core.testing import compare_vector_with_sync
 from gym4real.dam import DamEnv
 from gym4real.dam.lake import np_sum
 from gym4real.dam.vector import DamVectorEnv, pairwise_column_sums
+
+NEEDS_NUMBA = pytest.mark.skipif(importlib.util.find_spec("numba") is None, reason="numba (extra fast) not installed")
 
 
 def _close(actual: Any, expected: Any) -> None:
@@ -152,7 +155,7 @@ def test_column_sums_follow_numpys_pairwise_order(rows: int) -> None:
         ({"max_episode_steps": 30}, 3, 100),
     ],
 )
-@pytest.mark.parametrize("compiled", [True, False])
+@pytest.mark.parametrize("compiled", [pytest.param(True, marks=NEEDS_NUMBA), False])
 def test_native_vector_env_is_a_drop_in_for_sync_vector_env(
     kwargs: dict[str, Any], num_envs: int, steps: int, compiled: bool, monkeypatch: pytest.MonkeyPatch
 ) -> None:

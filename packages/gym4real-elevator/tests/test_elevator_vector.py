@@ -1,5 +1,6 @@
 from __future__ import annotations
 
+import importlib.util
 import sys
 from typing import Any
 
@@ -11,6 +12,8 @@ import gym4real  # noqa: F401
 from gym4real.core.testing import compare_vector_with_sync
 from gym4real.elevator import ElevatorEnv
 from gym4real.elevator.vector import ElevatorVectorEnv
+
+NEEDS_NUMBA = pytest.mark.skipif(importlib.util.find_spec("numba") is None, reason="numba (extra fast) not installed")
 
 
 def test_batched_copies_follow_the_single_env_step_by_step() -> None:
@@ -58,7 +61,7 @@ def test_batched_env_rejects_upstream_and_bad_actions() -> None:
         ({"duration": 60, "max_episode_steps": 7}, 4, 60),
     ],
 )
-@pytest.mark.parametrize("compiled", [True, False])
+@pytest.mark.parametrize("compiled", [pytest.param(True, marks=NEEDS_NUMBA), False])
 def test_native_vector_env_is_a_drop_in_for_sync_vector_env(
     kwargs: dict[str, Any], num_envs: int, steps: int, compiled: bool, monkeypatch: pytest.MonkeyPatch
 ) -> None:
