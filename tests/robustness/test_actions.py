@@ -17,6 +17,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import gym4real
+from gym4real.core.actions import box_value, discrete_action, discrete_actions
+from gym4real.core.errors import ActionError
 from gym4real.dam.vector import DamVectorEnv
 from gym4real.elevator.vector import ElevatorVectorEnv
 from gym4real.microgrid.vector import MicrogridVectorEnv
@@ -170,3 +172,55 @@ def test_batched_envs_refuse_what_the_single_env_refuses(make: Any, good: np.nda
             vec.step(bad)
         assert type(exc.value).__name__ == "ActionError"
     vec.step(good)
+
+
+INTEGER_TYPES = [int, np.int8, np.uint8, np.int16, np.uint16, np.int32, np.uint32, np.int64, np.uint64]
+
+
+@pytest.mark.parametrize("start", [0, -1, 2])
+@pytest.mark.parametrize("kind", INTEGER_TYPES)
+def test_the_fast_path_of_one_integer_accepts_exactly_the_space(start: int, kind: type) -> None:
+    """Brute force over values around the space (and the extremes of each type) against ``Discrete.contains``."""
+    space = spaces.Discrete(3, start=start)
+    info = np.iinfo(kind) if kind is not int else None
+    values = [v for v in range(start - 3, start + 6) if info is None or info.min <= v <= info.max]
+    extremes = [10**30, -(10**30)] if info is None else [int(info.min), int(info.max)]
+    for v in values + extremes:
+        action = kind(v)
+        if space.contains(np.int64(v)) if abs(v) < 2**62 else False:
+            assert discrete_action(action, space, "m") == v and type(discrete_action(action, space, "m")) is int
+        else:
+            with pytest.raises(ActionError, match="outside"):
+                discrete_action(action, space, "m")
+
+
+@pytest.mark.parametrize("start", [0, -1, 2])
+@pytest.mark.parametrize("dtype", [np.int8, np.uint8, np.int32, np.int64, np.uint64])
+def test_the_fast_path_of_a_batch_refuses_every_copy_outside_the_space(start: int, dtype: type) -> None:
+    """Brute force over one copy's value (the others valid), the extremes of each dtype included."""
+    space = spaces.Discrete(3, start=start)
+    info = np.iinfo(dtype)
+    candidates = [v for v in range(start - 3, start + 6) if info.min <= v <= info.max] + [int(info.min), int(info.max)]
+    for v in candidates:
+        actions = np.full(4, start, dtype=dtype) if info.min <= start <= info.max else np.zeros(4, dtype=dtype)
+        actions[2] = v
+        base_ok = space.contains(np.int64(actions[0]))
+        wanted = base_ok and start <= v < start + 3
+        if wanted:
+            out = discrete_actions(actions, space, 4, "m")
+            assert out.dtype == np.int64 and out.tolist() == [int(x) for x in actions]
+        else:
+            with pytest.raises(ActionError, match=r"\(copies \[2\]\).* outside"):
+                discrete_actions(actions, space, 4, "m")
+
+
+def test_the_fast_path_of_a_one_element_box_keeps_every_check() -> None:
+    box = spaces.Box(-1.0, 2.0, (1,), np.float32)
+    assert box_value(np.array([2.0]), box, "m") == 2.0 and box_value(np.array([-1.0], np.float32), box, "m") == -1.0
+    for bad in (np.array([2.5]), np.array([np.nan]), np.array([-np.inf], np.float32)):
+        with pytest.raises(ActionError):
+            box_value(bad, box, "m")
+    assert box_value(np.array([2.5]), box, "m", outside="clip") == 2.0
+    wide = spaces.Box(-1.0, 2.0, (2,), np.float32)  # one value for a box of two is refused, not read as in bounds
+    with pytest.raises(ActionError, match="shape"):
+        box_value(np.array([0.5]), wide, "m")

@@ -177,3 +177,20 @@ def test_ansi_render_draws_every_floor() -> None:
     for floor in range(5):
         assert f"F{floor}" in text
     assert "(goal)" in text
+
+
+def test_an_agent_changing_its_observations_does_not_change_the_episode() -> None:
+    """The observation's arrays are the agent's: writing into them leaves the dynamics and later observations."""
+    kept, changed = ElevatorEnv(), ElevatorEnv()
+    obs_kept, _ = kept.reset(seed=4)
+    obs_changed, _ = changed.reset(seed=4)
+    rng = np.random.default_rng(0)
+    for _ in range(400):
+        for key in ("arrivals", "floor_queues"):
+            np.testing.assert_array_equal(obs_changed[key], obs_kept[key])
+            obs_changed[key] += 7  # the agent scribbles on what it was given
+        action = int(rng.integers(3))
+        obs_kept, r_kept, *_ = kept.step(action)
+        obs_changed, r_changed, *_ = changed.step(action)
+        assert r_changed == r_kept
+    assert changed.counts() == kept.counts()

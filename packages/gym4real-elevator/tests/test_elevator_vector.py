@@ -1,5 +1,7 @@
 from __future__ import annotations
 
+import importlib.util
+import sys
 from typing import Any
 
 import gymnasium as gym
@@ -10,6 +12,8 @@ import gym4real  # noqa: F401
 from gym4real.core.testing import compare_vector_with_sync
 from gym4real.elevator import ElevatorEnv
 from gym4real.elevator.vector import ElevatorVectorEnv
+
+NEEDS_NUMBA = pytest.mark.skipif(importlib.util.find_spec("numba") is None, reason="numba (extra fast) not installed")
 
 
 def test_batched_copies_follow_the_single_env_step_by_step() -> None:
@@ -57,10 +61,30 @@ def test_batched_env_rejects_upstream_and_bad_actions() -> None:
         ({"duration": 60, "max_episode_steps": 7}, 4, 60),
     ],
 )
-def test_native_vector_env_is_a_drop_in_for_sync_vector_env(kwargs: dict[str, Any], num_envs: int, steps: int) -> None:
-    """Same seeds and actions give the trajectories of ``SyncVectorEnv`` of the single env, across autoresets.
+@pytest.mark.parametrize("compiled", [pytest.param(True, marks=NEEDS_NUMBA), False])
+def test_native_vector_env_is_a_drop_in_for_sync_vector_env(
+    kwargs: dict[str, Any], num_envs: int, steps: int, compiled: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Same seeds and actions give the trajectories of ``SyncVectorEnv`` of the single env, across autoresets,
+    with the compiled step of the copies (numba) and with the numpy one (what runs without numba).
 
     Discrete dynamics: bit for bit.
     """
+    made = []
+    original = ElevatorVectorEnv.__init__
+
+    def init(self: ElevatorVectorEnv, *args: Any, **kw: Any) -> None:
+        original(self, *args, compiled=compiled, **kw)
+        made.append(self)
+
+    monkeypatch.setattr(ElevatorVectorEnv, "__init__", init)
     result = compare_vector_with_sync("gym4real/elevator-v0", num_envs, steps, seed=3, rtol=0.0, **kwargs)
     assert (result.episode_ends >= 2).all()
+    assert [vec._kernel is not None for vec in made] == [compiled]
+
+
+def test_compiled_true_without_numba_names_the_extra(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setitem(sys.modules, "gym4real.elevator.vector_kernel", None)  # as if numba were missing
+    with pytest.raises(ImportError, match=r"gym4real-elevator\[fast\]"):
+        ElevatorVectorEnv(2, compiled=True)
+    assert ElevatorVectorEnv(2)._kernel is None  # the default falls back to numpy

@@ -61,3 +61,49 @@ def test_native_vector_env_is_a_drop_in_for_sync_vector_env(kwargs: dict[str, An
     """
     result = compare_vector_with_sync("gym4real/trading-v0", num_envs, steps, seed=3, rtol=1e-09, **kwargs)
     assert (result.episode_ends >= 2).all()
+
+
+def test_days_drawn_ahead_are_the_single_envs_days_across_refills(monkeypatch: pytest.MonkeyPatch) -> None:
+    """With 2 days drawn per call, 30 steps (4 episodes) refill every copy's draws twice: still SyncVectorEnv's days."""
+    monkeypatch.setattr("gym4real.trading.vector.DRAWS_AT_ONCE", 2)
+    result = compare_vector_with_sync("gym4real/trading-v0", 3, 30, seed=4)
+    assert (result.episode_ends >= 3).all()
+
+
+def test_reset_options_pick_each_copys_day_like_the_single_env() -> None:
+    vec = TradingVectorEnv(3)
+    single = TradingEnv()
+    days = [single.days[5], single.days[2].isoformat(), 7]
+    obs, info = vec.reset(seed=1, options={"day": days})
+    for i, day in enumerate(days):
+        single_obs, single_info = single.reset(seed=1 + i, options={"day": day})
+        np.testing.assert_array_equal(obs[i], single_obs)
+        assert single.days[info["day"][i]].isoformat() == single_info["day"]
+    assert info["_day"].all()
+    # the options draw nothing: the next days are those the seeded single envs draw first
+    _, info = vec.reset()
+    for i in range(3):
+        single.reset(seed=1 + i, options={"day": 0})
+        _, single_info = single.reset()
+        assert single.days[info["day"][i]].isoformat() == single_info["day"]
+    _, info = vec.reset(options={"day": single.days[4]})  # one day for every copy
+    assert (info["day"] == 4).all()
+
+
+def test_bad_reset_options_are_refused_naming_them() -> None:
+    vec = TradingVectorEnv(2)
+    with pytest.raises(ValueError, match="unknown reset options"):
+        vec.reset(options={"year": 2020})
+    with pytest.raises(ValueError, match="one value or 2"):
+        vec.reset(options={"day": [0, 1, 2]})
+    with pytest.raises(ValueError, match="out of range"):
+        vec.reset(options={"day": 10**6})
+
+
+def test_step_info_carries_gymnasiums_masks() -> None:
+    vec = TradingVectorEnv(2)
+    vec.reset(seed=0)
+    _, _, _, _, info = vec.step(np.array([0, 2]))
+    assert info["_reward_components"].tolist() == [True, True]
+    assert info["reward_components"]["_pnl"].tolist() == [True, True]
+    assert info["reward_components"]["_fees"].tolist() == [True, True]

@@ -4,6 +4,7 @@ import gc
 import importlib.util
 import os
 import tempfile
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -269,3 +270,16 @@ def test_other_decision_intervals(interval: int, hyd: int) -> None:
         assert n == 86_400 // interval
     finally:
         e.close()
+
+
+def test_only_the_engines_bare_warning_is_ignored() -> None:
+    """owa-epanet's ``Warning("WARNING")``, attributed to the engine module that calls ``runH``, is silenced by
+    the filter an engine sets when it opens; the same warning from anywhere else, and any other warning from
+    the engine module, still reach the user."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.resetwarnings()  # no filter at all: what a user's fresh filters would be
+        WDSEnv().close()  # opening an engine sets the filter
+        warnings.warn_explicit("WARNING", Warning, en.__file__, 1, module=en.__name__)
+        warnings.warn_explicit("WARNING", Warning, "user.py", 1, module="user")
+        warnings.warn_explicit("pressure low", UserWarning, en.__file__, 2, module=en.__name__)
+    assert [(str(w.message), w.filename) for w in caught] == [("WARNING", "user.py"), ("pressure low", en.__file__)]

@@ -32,6 +32,7 @@ Outside = Literal["raise", "clip", "keep"]
 
 _INTEGER_KINDS = "iu"
 _REAL_KINDS = "iuf"
+_SCALAR_INTEGERS = frozenset({int, *(np.dtype(c).type for c in np.typecodes["AllInteger"])})
 _S = TypeVar("_S", spaces.Box, spaces.Discrete)
 
 
@@ -77,6 +78,10 @@ def discrete_action(action: Any, space: spaces.Space[Any], meaning: str) -> int:
         space: The env's ``Discrete`` action space.
         meaning: What the values mean, for the message (``"0 (down), 1 (open) or 2 (up)"``).
     """
+    if type(space) is spaces.Discrete and type(action) in _SCALAR_INTEGERS:  # the usual case, at once
+        low = space.start
+        if low <= action < low + space.n:
+            return int(action)
     space = _kind(space, spaces.Discrete)
     if type(action) is int or (isinstance(action, np.integer) and not isinstance(action, np.bool_)):
         value = int(action)
@@ -95,7 +100,18 @@ def discrete_action(action: Any, space: spaces.Space[Any], meaning: str) -> int:
 
 
 def discrete_actions(actions: Any, space: spaces.Space[Any], num_envs: int, meaning: str) -> np.ndarray:
-    """The actions of ``num_envs`` copies as an ``int64`` array ``(num_envs,)``, or :class:`ActionError`."""
+    """The actions of ``num_envs`` copies as an ``int64`` array ``(num_envs,)`` (a copy), or :class:`ActionError`."""
+    if (
+        type(space) is spaces.Discrete
+        and type(actions) is np.ndarray
+        and (actions.dtype.kind == "i" or (actions.dtype.kind == "u" and actions.dtype.itemsize < 8))
+        and actions.shape == (num_envs,)
+        and num_envs > 0
+    ):  # the usual case: one reduction (below the start wraps around to a huge unsigned number)
+        values = actions.astype(np.int64)
+        low = space.start
+        if (values - low if low else values).view(np.uint64).max() < space.n:
+            return values
     space = _kind(space, spaces.Discrete)
     low = int(space.start)
     high = low + int(space.n) - 1
@@ -106,12 +122,12 @@ def discrete_actions(actions: Any, space: spaces.Space[Any], num_envs: int, mean
         raise _refuse(actions, space, problem, expected)
     if arr.size != num_envs or _squeezed(arr.shape) != _squeezed((num_envs,)):
         raise _refuse(actions, space, f"shape {arr.shape}, not ({num_envs},)", expected)
-    values = arr.reshape(num_envs).astype(np.int64)
-    bad = (values < low) | (values > high)
+    flat = arr.reshape(num_envs)
+    bad = (flat < low) | (flat > high)  # compared before the int64 copy, which would wrap a huge uint64 around
     if bad.any():
-        problem = f"{values[bad].tolist()} outside [{low}, {high}]"
+        problem = f"{flat[bad].tolist()} outside [{low}, {high}]"
         raise _refuse(actions, space, problem, meaning, copies=f" (copies {np.flatnonzero(bad).tolist()})")
-    return values
+    return flat.astype(np.int64)
 
 
 def _squeezed(shape: tuple[int, ...]) -> tuple[int, ...]:
@@ -198,11 +214,11 @@ def box_value(
     fix: str = "clip it into the box (`np.clip(a, low, high)`)",
 ) -> float:
     """:func:`box_action` for a ``Box`` of one element, as a float (a float array inside the box returns at once)."""
+    if type(action) is np.ndarray and action.size == 1 and action.dtype.kind == "f" and type(space) is spaces.Box:
+        x = action.item()  # a Python float
+        if space.shape == (1,) and space.low.item() <= x <= space.high.item():  # the usual case; False with a NaN
+            return x  # type: ignore[no-any-return]
     box = _kind(space, spaces.Box)
-    if type(action) is np.ndarray and action.dtype.kind == "f" and action.size == 1 and box.shape == (1,):
-        x = float(action.item())
-        if float(box.low[0]) <= x <= float(box.high[0]):  # the usual case; False with a NaN
-            return x
     return float(_checked_box(action, box, box.shape, meaning, meaning, outside, tolerance, fix)[0])
 
 

@@ -103,6 +103,18 @@ def _relative(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return d.reshape(len(d), -1).max(axis=1) if d.ndim > 1 else d
 
 
+def _assert_same_masks(native: dict[str, Any], sync: dict[str, Any], where: str) -> None:
+    """Every info key of the native env carries Gymnasium's mask ``_key``, equal to ``SyncVectorEnv``'s."""
+    for key, value in native.items():
+        if key.startswith("_"):
+            continue
+        assert f"_{key}" in native, f"{where}: info[{key!r}] has no mask `_{key}`"
+        if f"_{key}" in sync:
+            np.testing.assert_array_equal(native[f"_{key}"], sync[f"_{key}"], err_msg=f"{where}: mask `_{key}`")
+        if isinstance(value, dict) and isinstance(sync.get(key), dict):
+            _assert_same_masks(value, sync[key], f"{where}, info[{key!r}]")
+
+
 def compare_vector_with_sync(
     env_id: str, num_envs: int, steps: int, seed: int = 0, rtol: float = 0.0, **kwargs: Any
 ) -> VectorComparison:
@@ -112,7 +124,8 @@ def compare_vector_with_sync(
     reset with ``seed`` (copy ``i`` seeded ``seed + i``, then continuing without a seed at each
     autoreset) and stepped with the same actions, sampled from the batched action space seeded with
     ``seed``. Termination and truncation flags must agree exactly, observations and rewards within
-    ``rtol`` (relative, absolute below 1); the differences are returned for reporting.
+    ``rtol`` (relative, absolute below 1), and each info key of the native env must carry Gymnasium's mask
+    ``_key``, equal to ``SyncVectorEnv``'s where that has the key; the differences are returned for reporting.
 
     Raises:
         AssertionError: The native env departs from ``SyncVectorEnv``.
@@ -120,8 +133,9 @@ def compare_vector_with_sync(
     native = gym.make_vec(env_id, num_envs, vectorization_mode="vector_entry_point", **kwargs)
     sync = gym.make_vec(env_id, num_envs, vectorization_mode="sync", **kwargs)
     try:
-        obs_n, _ = native.reset(seed=seed)
-        obs_s, _ = sync.reset(seed=seed)
+        obs_n, info_n = native.reset(seed=seed)
+        obs_s, info_s = sync.reset(seed=seed)
+        _assert_same_masks(info_n, info_s, "reset")
         sync.action_space.seed(seed)
         obs_diff = np.zeros(num_envs)
         reward_diff = np.zeros(num_envs)
@@ -136,8 +150,9 @@ def compare_vector_with_sync(
             if t == steps:
                 break
             actions = sync.action_space.sample()
-            obs_n, r_n, term_n, trunc_n, _ = native.step(actions)
-            obs_s, r_s, term_s, trunc_s, _ = sync.step(actions)
+            obs_n, r_n, term_n, trunc_n, info_n = native.step(actions)
+            obs_s, r_s, term_s, trunc_s, info_s = sync.step(actions)
+            _assert_same_masks(info_n, info_s, f"step {t}")
             np.testing.assert_array_equal(term_n, term_s, err_msg=f"terminated at step {t}")
             np.testing.assert_array_equal(trunc_n, trunc_s, err_msg=f"truncated at step {t}")
             d = _relative(np.asarray(r_n, dtype=np.float64), np.asarray(r_s, dtype=np.float64))

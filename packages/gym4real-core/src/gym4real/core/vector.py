@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib
 import operator
 from typing import Any
 
@@ -40,3 +41,53 @@ def copy_generators(env: Any, current: list[np.random.Generator] | None, seed: i
     if current is None:
         return [seeding.np_random(int(k))[0] for k in env.np_random.integers(2**31, size=env.num_envs)]
     return current
+
+
+def per_copy(value: Any, num_envs: int, name: str) -> np.ndarray:
+    """A reset option as one value per copy: one value for every copy, or ``num_envs`` of them.
+
+    Raises:
+        ValueError: Neither one value nor ``num_envs``, naming the option.
+    """
+    arr = np.asarray(value)
+    if arr.ndim == 0:
+        arr = np.full(num_envs, arr)
+    if arr.shape != (num_envs,):
+        raise ValueError(f"reset option `{name}` must be one value or {num_envs} (one per copy), not {value!r}")
+    return arr
+
+
+def with_masks(info: dict[str, Any], num_envs: int, present: np.ndarray | None = None) -> dict[str, Any]:
+    """``info`` of a batch with Gymnasium's masks: a boolean array ``_key`` next to each key, nested dicts included.
+
+    Gymnasium's vector envs mark which copies a key holds a value for (``info["reward_components"]["_pnl"]``
+    and ``info["_reward_components"]``). ``present`` says which copies report (all of them by default: the
+    native batched envs step and reset their copies together, except where a copy is autoreset).
+    """
+    masked: dict[str, Any] = {}
+    for key, value in info.items():
+        masked[key] = with_masks(value, num_envs, present) if isinstance(value, dict) else value
+        masked[f"_{key}"] = np.ones(num_envs, dtype=bool) if present is None else present.copy()
+    return masked
+
+
+def compiled_kernel(module: str, name: str, compiled: bool | None, install: str) -> Any:
+    """A native batched env's compiled step (numba), or None for its numpy path (the same numbers).
+
+    Args:
+        module: The module holding the compiled function (it imports numba).
+        name: The function's name.
+        compiled: True requires numba, False takes numpy, None takes numba where it is installed.
+        install: The pip command that installs numba for this env, for the error.
+
+    Raises:
+        ImportError: ``compiled=True`` without numba, naming ``install``.
+    """
+    if compiled is False:
+        return None
+    try:
+        return getattr(importlib.import_module(module), name)
+    except ImportError:
+        if compiled:
+            raise ImportError(f"compiled=True needs numba: `{install}` (or compiled=None for numpy)") from None
+        return None

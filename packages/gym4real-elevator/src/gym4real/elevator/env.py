@@ -140,6 +140,9 @@ class ElevatorEnv(gym.Env[dict[str, Any], int]):
 
     def _reset_state(self, arrivals_table: np.ndarray, position: int) -> None:
         self._arrivals = arrivals_table
+        # the observations' arrivals: row t is handed out once, at second t (the dynamics read _rows), so
+        # the agent may keep or change it without touching the episode
+        self._arrival_obs = arrivals_table.copy()
         per_second = arrivals_table.sum(axis=1)
         self._arrived_cum = np.cumsum(per_second).tolist()
         self._rows = arrivals_table.tolist()
@@ -157,7 +160,7 @@ class ElevatorEnv(gym.Env[dict[str, Any], int]):
 
     def _obs(self) -> dict[str, Any]:
         return {
-            "arrivals": self._arrivals[self._t].copy(),
+            "arrivals": self._arrival_obs[self._t],
             "current_position": self._pos,
             "floor_queues": self._queue_obs.copy(),
             "n_passengers": self._load,

@@ -18,7 +18,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from gym4real.core.actions import box_actions
-from gym4real.core.vector import check_max_episode_steps, copy_generators
+from gym4real.core.vector import check_max_episode_steps, copy_generators, with_masks
 from gym4real.microgrid.aging import AgingParams
 from gym4real.microgrid.battery import KELVIN, BatteryParams
 from gym4real.microgrid.config import MicrogridConfig
@@ -410,7 +410,7 @@ class MicrogridVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         idx = np.arange(n)
         self._start(idx, options or {})
         self._autoreset[:] = False
-        return self._obs(), self._reset_info(idx)
+        return self._obs(), with_masks(self._reset_info(idx), n)
 
     def _reset_info(self, idx: Array) -> dict[str, Any]:
         t = self.twin
@@ -539,13 +539,9 @@ class MicrogridVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
                     v[idx] = 0.0
         self._autoreset = terminated | truncated
         reward = comps["trading"] + comps["degradation"] + comps["clipping"]
-        info = {
-            "reward_components": comps,
-            "pure_components": pure,
-            "cost": cost,
-            "soc": soc,
-            "soh": soh,
-            "temperature": temperature,
-            "energy": energy,
-        }
+        # the copies restarted now report these from their reset, as the single env's reset info has them
+        info = with_masks(
+            {"reward_components": comps, "pure_components": pure, "cost": cost, "soc": soc, "soh": soh}, n
+        )
+        info.update(with_masks({"temperature": temperature, "energy": energy}, n, present=~reset))  # only a step's
         return obs, reward, terminated, truncated, info
