@@ -3,13 +3,15 @@
 Each frame is the env's ``render_mode="rgb_array"`` frame under a caption with the env, the policy, the
 episode, the step and the return so far. The MP4 holds every step and is written while the episode
 runs (a year of hourly frames never sits in memory); it needs MoviePy (``pip install
-"gym4real-core[video]"``). The GIF, for documentation, holds at most ``gif_frames`` evenly spaced frames
-(every k-th step, k doubling as the episode grows) and is written with Pillow.
+"gym4real-core[video]"``): without it the GIF alone is written, with a :class:`NoMp4Warning` saying so.
+The GIF, for documentation, holds at most ``gif_frames`` evenly spaced frames (every k-th step, k
+doubling as the episode grows) and is written with Pillow.
 """
 
 from __future__ import annotations
 
 import re
+import warnings
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
@@ -59,13 +61,21 @@ class GifFrames:
         first.save(path, save_all=True, append_images=rest, duration=duration, loop=0, optimize=True)
 
 
-def _mp4_writer(path: Path, size: tuple[int, int], fps: float) -> Any:
+#: Why an MP4 cannot be written, and the fix.
+MP4_NEEDS_MOVIEPY = 'writing an MP4 needs MoviePy: `pip install "gym4real-core[video]"`'
+
+
+class NoMp4Warning(UserWarning):
+    """MoviePy is missing: the GIF is written without the MP4."""
+
+
+def _mp4_writer_class() -> Any:
+    """MoviePy's FFmpeg writer, or None when MoviePy is not installed."""
     try:
         from moviepy.video.io.ffmpeg_writer import FFMPEG_VideoWriter
-    except ImportError as exc:
-        msg = 'writing an MP4 needs MoviePy: `pip install "gym4real-core[video]"` (or pass `mp4=False`, `--no-mp4`)'
-        raise Gym4RealError(msg) from exc
-    return FFMPEG_VideoWriter(str(path), size, fps, codec="libx264", pixel_format="yuv420p")
+    except ImportError:
+        return None
+    return FFMPEG_VideoWriter
 
 
 def policy_label(policy: str | Callable[[Any], Any]) -> str:
@@ -101,19 +111,28 @@ def record(
         fps: Frames per second; default the env's ``metadata["render_fps"]``.
         env_kwargs: Keyword arguments of ``gymnasium.make``.
         max_steps: Cut each episode after this many steps (a Gymnasium time limit).
-        mp4: Write the MP4 (needs MoviePy).
+        mp4: Write the MP4 (needs MoviePy; without it, the GIF alone is written and :class:`NoMp4Warning` says
+            so).
         gif: Write the GIF.
         gif_frames: Most frames in a GIF.
         progress: Show a progress bar of the steps.
 
     Returns:
         The paths written.
+
+    Raises:
+        Gym4RealError: The MP4 alone is asked for and MoviePy is missing.
     """
     env_spec(env_id)  # a clear error for an unknown or unavailable id
     if episodes < 1:
         raise ConfigError(f"`episodes` must be a positive number, not {episodes}")
     if not (mp4 or gif):
         raise ConfigError("nothing to write: keep the MP4, the GIF or both")
+    writer_class = _mp4_writer_class() if mp4 else None
+    if mp4 and writer_class is None:
+        if not gif:
+            raise Gym4RealError(MP4_NEEDS_MOVIEPY)
+        warnings.warn(f"{MP4_NEEDS_MOVIEPY}; writing the GIF only", NoMp4Warning, stacklevel=2)
     if fps is not None and not fps > 0:
         raise ConfigError(f"`fps` must be a positive number of frames per second, not {fps}")
     kwargs: dict[str, Any] = {**(env_kwargs or {}), "render_mode": "rgb_array"}
@@ -134,7 +153,9 @@ def record(
         acting = make_policy(env_id, policy, env)
         for i in range(episodes):
             stem = folder / re.sub(r"[^\w.-]+", "_", f"{env_id.split('/')[-1]}-{label}-seed{seed + i}")
-            written += _record_episode(env, acting, seed + i, stem, rate, mp4, gif, gif_frames, bar, (env_id, label))
+            written += _record_episode(
+                env, acting, seed + i, stem, rate, writer_class, gif, gif_frames, bar, (env_id, label)
+            )
     finally:
         env.close()
         if bar is not None:
@@ -148,7 +169,7 @@ def _record_episode(
     seed: int,
     stem: Path,
     fps: float,
-    mp4: bool,
+    writer_class: Any,
     gif: bool,
     gif_frames: int,
     bar: Any,
@@ -164,9 +185,10 @@ def _record_episode(
             raise Gym4RealError(f"`{names[0]}` rendered {type(frame).__name__}, not an rgb_array frame")
         lines = (f"{names[0]}  policy {names[1]}", f"seed {seed}  step {step}  return {total:.6g}")
         frame = captioned(frame, lines)
-        if mp4:
+        if writer_class is not None:
             if writer is None:
-                writer = _mp4_writer(stem.with_suffix(".mp4"), (frame.shape[1], frame.shape[0]), fps)
+                size = (frame.shape[1], frame.shape[0])
+                writer = writer_class(str(stem.with_suffix(".mp4")), size, fps, codec="libx264", pixel_format="yuv420p")
             writer.write_frame(frame)
         if keeper is not None:
             keeper.add(frame)
@@ -178,7 +200,7 @@ def _record_episode(
     finally:
         if writer is not None:
             writer.close()
-    paths = [stem.with_suffix(".mp4")] if mp4 else []
+    paths = [stem.with_suffix(".mp4")] if writer_class is not None else []
     if keeper is not None:
         keeper.save(stem.with_suffix(".gif"), fps)
         paths.append(stem.with_suffix(".gif"))
