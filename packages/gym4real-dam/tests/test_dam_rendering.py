@@ -79,4 +79,3 @@ def test_each_frame_names_the_day_the_lake_is_at_and_the_last_is_the_years_last_
         if t in (1, 2, 200, h):
             assert shows(env.render(), f"day {t:3d} end  (step {t}/{h})"), t
             assert ansi.render().startswith(f"1950 day {t:3d} end: "), t
-    assert not shows(env.render(), f"day   1 start  (step {h}/{h})")
