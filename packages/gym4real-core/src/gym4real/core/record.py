@@ -1,8 +1,9 @@
 """Videos of a policy acting in an environment: ``gym4real record`` (an MP4 and an animated GIF per episode).
 
 Each frame is the env's ``render_mode="rgb_array"`` frame under a caption with the env, the policy, the
-episode, the step and the return so far. The MP4 holds every step and is written while the episode
-runs (a year of hourly frames never sits in memory); it needs MoviePy (``pip install
+episode, the step and the return so far; an env that declares ``rgb_array_list`` itself (a robot whose
+step is a whole pick) is filmed with it: every frame of each step. The MP4 holds every step and is
+written while the episode runs (a year of hourly frames never sits in memory); it needs MoviePy (``pip install
 "gym4real-core[video]"``): without it the GIF alone is written, with a :class:`NoMp4Warning` saying so.
 The GIF, for documentation, holds at most ``gif_frames`` evenly spaced frames (every k-th step, k
 doubling as the episode grows) and is written with Pillow.
@@ -18,6 +19,7 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
+from gymnasium.envs.registration import load_env_creator
 from PIL import Image
 
 from gym4real.core.benchmark import policy_name, run_episode
@@ -78,6 +80,14 @@ def _mp4_writer_class() -> Any:
     return FFMPEG_VideoWriter
 
 
+def _render_mode(env_id: str) -> str:
+    """``rgb_array_list`` where the env's class declares it (frames within a step), else ``rgb_array``."""
+    entry_point = gym.spec(env_id).entry_point
+    creator = load_env_creator(entry_point) if isinstance(entry_point, str) else entry_point
+    modes = getattr(creator, "metadata", {}).get("render_modes", ())
+    return "rgb_array_list" if "rgb_array_list" in modes else "rgb_array"
+
+
 def policy_label(policy: str | Callable[[Any], Any]) -> str:
     """The policy's name for captions and file names (``ppo:runs/x/model.zip`` -> ``ppo-model``)."""
     if not isinstance(policy, str):
@@ -135,7 +145,7 @@ def record(
         warnings.warn(f"{MP4_NEEDS_MOVIEPY}; writing the GIF only", NoMp4Warning, stacklevel=2)
     if fps is not None and not fps > 0:
         raise ConfigError(f"`fps` must be a positive number of frames per second, not {fps}")
-    kwargs: dict[str, Any] = {**(env_kwargs or {}), "render_mode": "rgb_array"}
+    kwargs: dict[str, Any] = {**(env_kwargs or {}), "render_mode": _render_mode(env_id)}
     if max_steps is not None:
         kwargs["max_episode_steps"] = max_steps
     env = gym.make(env_id, **kwargs)
@@ -180,18 +190,20 @@ def _record_episode(
 
     def on_step(step: int, total: float) -> None:
         nonlocal writer
-        frame = env.render()
-        if not isinstance(frame, np.ndarray):
-            raise Gym4RealError(f"`{names[0]}` rendered {type(frame).__name__}, not an rgb_array frame")
+        rendered = env.render()
         lines = (f"{names[0]}  policy {names[1]}", f"seed {seed}  step {step}  return {total:.6g}")
-        frame = captioned(frame, lines)
-        if writer_class is not None:
-            if writer is None:
-                size = (frame.shape[1], frame.shape[0])
-                writer = writer_class(str(stem.with_suffix(".mp4")), size, fps, codec="libx264", pixel_format="yuv420p")
-            writer.write_frame(frame)
-        if keeper is not None:
-            keeper.add(frame)
+        for frame in rendered if isinstance(rendered, list) else [rendered]:
+            if not isinstance(frame, np.ndarray):
+                raise Gym4RealError(f"`{names[0]}` rendered {type(frame).__name__}, not an rgb_array frame")
+            shown = captioned(frame, lines)
+            if writer_class is not None:
+                if writer is None:
+                    size = (shown.shape[1], shown.shape[0])
+                    path = str(stem.with_suffix(".mp4"))
+                    writer = writer_class(path, size, fps, codec="libx264", pixel_format="yuv420p")
+                writer.write_frame(shown)
+            if keeper is not None:
+                keeper.add(shown)
         if bar is not None and step:
             bar.update()
 

@@ -8,6 +8,7 @@ explicit tick loop of :meth:`Simulator.pick`, with the reference's tick timings)
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -203,10 +204,10 @@ class Simulator:
         """Free the renderer."""
         self.renderer.close()
 
-    def render(self, camera: str = "top_down") -> np.ndarray:
-        """RGB frame (uint8, H x W x 3) of ``camera``."""
+    def render(self, camera: str = "top_down", robot: bool = False) -> np.ndarray:
+        """RGB frame (uint8, H x W x 3) of ``camera`` (``robot``: with the arm, which the observation hides)."""
         mujoco.mj_forward(self.model, self.data)
-        return self.renderer.render(self.data, camera)
+        return self.renderer.render(self.data, camera, robot)
 
     def object_positions(self) -> np.ndarray:
         """Body origins of the objects (N x 3, world)."""
@@ -396,11 +397,12 @@ class Simulator:
             self._yaw_cache[key] = c
         return float((c - yaw) % (2.0 * np.pi))
 
-    def _run_controller(self, plan: np.ndarray, theta: float) -> np.ndarray:
+    def _run_controller(self, plan: np.ndarray, theta: float, on_tick: Callable[[], None] | None) -> np.ndarray:
         """Execute the plan with the reference's tick timings; return the object positions at the last tick.
 
         The reference's control callback runs inside ``mj_step`` before the integration: a tick at time t
         applies its command to the step from t, and the pick ends after the step of its last tick.
+        ``on_tick`` is called as each tick fires (to film the pick).
         """
         c = self.config.controller
         d = self.data
@@ -420,6 +422,8 @@ class Simulator:
                 n += 1
             self._step(n)
             last_tick = d.time
+            if on_tick is not None:
+                on_tick()
             if closing:
                 gripper -= c.delta_gripper
                 d.ctrl[6:8] = max(gripper, 0.0)
@@ -439,13 +443,20 @@ class Simulator:
                     self._step(1)
                     return final
 
-    def pick(self, xy: np.ndarray, theta: float, pixel: np.ndarray | None = None) -> PickOutcome:
+    def pick(
+        self,
+        xy: np.ndarray,
+        theta: float,
+        pixel: np.ndarray | None = None,
+        on_tick: Callable[[], None] | None = None,
+    ) -> PickOutcome:
         """Attempt to pick at world ``xy`` with joint 6 at ``theta``.
 
         Args:
             xy: Target (x, y) on the picking plane (m, world).
             theta: Joint-6 angle (rad), clamped to its control range [0, pi].
             pixel: The image point the target came from (for the reachable-window check).
+            on_tick: Called at each tick of the pick's controller (to film it).
         """
         cfg = self.config
         theta = float(np.clip(theta, 0.0, np.pi))
@@ -469,7 +480,7 @@ class Simulator:
                 outcome.feasible = False
                 return outcome
         before = self.physics_steps
-        final = self._run_controller(plan, theta)
+        final = self._run_controller(plan, theta, on_tick)
         goal = np.asarray(cfg.success_point)
         for i in range(self.n):
             if not self.picked[i] and np.linalg.norm(final[i] - goal) < cfg.success_radius:
