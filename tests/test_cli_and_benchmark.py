@@ -182,6 +182,17 @@ def test_cli_info_is_a_readable_summary_and_json_on_request(capsys: pytest.Captu
     assert record["flags"]["provably_efficient"] is True
 
 
+def test_cli_info_text_has_no_rest_double_backticks(capsys: pytest.CaptureFixture[str]) -> None:
+    """The docstring's ``sim_horizon`` reads as sim_horizon in a terminal; --json keeps the docstring's text."""
+    assert main(["info", "gym4real/dam-v0", "--json"]) == 0
+    episode_end = json.loads(capsys.readouterr().out)["interface"]["episode_end"]
+    assert "``sim_horizon``" in episode_end
+    assert main(["info", "gym4real/dam-v0"]) == 0
+    text = capsys.readouterr().out
+    assert "``" not in text
+    assert " ".join(episode_end.replace("``", "").split()) in " ".join(text.split())
+
+
 def test_a_reader_that_goes_away_is_not_an_error() -> None:
     """`gym4real list | head`: the closed pipe ends the command quietly, with no error line."""
     child = subprocess.Popen(

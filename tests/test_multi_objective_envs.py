@@ -53,12 +53,20 @@ def test_contract(mo_id: str) -> None:
 
 
 @pytest.mark.parametrize("mo_id", MO_IDS[:1])
-def test_info_shows_the_reward_space_and_the_baselines(mo_id: str, capsys: pytest.CaptureFixture[str]) -> None:
+def test_info_shows_the_reward_space_its_components_and_the_baselines(
+    mo_id: str, capsys: pytest.CaptureFixture[str]
+) -> None:
     assert main(["info", mo_id, "--json"]) == 0
     record = json.loads(capsys.readouterr().out)
     env = gym.make(mo_id)
+    components = env.unwrapped.components
     assert record["interface"]["reward_space"] == str(env.unwrapped.reward_space)
     env.close()
+    assert record["interface"]["reward_components"] == list(components)
+    assert main(["info", mo_id]) == 0
+    text = capsys.readouterr().out
+    reward = text[text.index("\nreward ") : text.index("\nepisode end")]
+    assert " ".join(reward.split()).endswith("one entry per reward component: " + ", ".join(components))
     base = registry().multi_objective[mo_id]
     assert record["baselines"] == list(gym4real.env_info(base).baselines)
     assert record["benchmark"]["description"] == registry().benchmarks[base].description

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+import sys
 from pathlib import Path
 
 import gymnasium as gym
@@ -12,8 +14,9 @@ from PIL import Image, ImageSequence
 import gym4real
 from gym4real.core.canvas import CHAR_HEIGHT, captioned
 from gym4real.core.cli import main
+from gym4real.core.errors import Gym4RealError
 from gym4real.core.policies import baseline_names, make_policy
-from gym4real.core.record import GifFrames
+from gym4real.core.record import GifFrames, record
 
 IDS = gym4real.list_envs()
 
@@ -52,7 +55,7 @@ def _expected_last_frame(
 
 @pytest.mark.parametrize("env_id", IDS)
 def test_record_writes_a_captioned_mp4_and_gif_per_episode(env_id: str, tmp_path: Path) -> None:
-    from moviepy import VideoFileClip
+    VideoFileClip = pytest.importorskip("moviepy", reason="the MP4 needs the `video` extra").VideoFileClip
 
     policy = _rule_based(env_id)
     args = ["record", env_id, "--policy", policy, "--episodes", "2", "--seed", "3", "--out", str(tmp_path)]
@@ -89,6 +92,40 @@ def test_record_plays_a_trained_model_given_as_kind_path(tmp_path: Path) -> None
     steps, want = _expected_last_frame(env_id, policy, 0, 12, label="qlearning-q")
     assert len(gif) == steps + 1 == 13
     np.testing.assert_array_equal(gif[-1], want)  # the cabin went up: the model's episode, captioned
+
+
+def _without_moviepy(monkeypatch: pytest.MonkeyPatch) -> None:
+    for name in ("moviepy", "moviepy.video.io.ffmpeg_writer"):
+        monkeypatch.setitem(sys.modules, name, None)  # `import` raises ImportError, as where it is not installed
+
+
+def test_record_without_moviepy_writes_the_gif_and_says_the_mp4_needs_the_extra(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    _without_moviepy(monkeypatch)
+    env_id = "gym4real/elevator-v0"
+    args = ["record", env_id, "--policy", "longest_first", "--out", str(tmp_path), "--max-steps", "5", "--quiet"]
+    assert main(args) == 0
+    out, err = capsys.readouterr()
+    assert not list(tmp_path.glob("*.mp4"))
+    gif = tmp_path / "elevator-v0-longest_first-seed0.gif"
+    assert out.splitlines() == [f"wrote {gif}"]
+    assert err.splitlines() == [
+        'gym4real: warning: writing an MP4 needs MoviePy: `pip install "gym4real-core[video]"`; writing the GIF only'
+    ]
+    steps, want = _expected_last_frame(env_id, "longest_first", 0, 5)
+    frames = _frames(gif)
+    assert len(frames) == steps + 1
+    np.testing.assert_array_equal(frames[-1], want)
+
+
+def test_record_of_the_mp4_alone_without_moviepy_names_the_extra(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    _without_moviepy(monkeypatch)
+    with pytest.raises(Gym4RealError, match=re.escape('pip install "gym4real-core[video]"')):
+        record("gym4real/elevator-v0", "longest_first", out=tmp_path, max_steps=2, gif=False)
+    assert not list(tmp_path.iterdir())
 
 
 def test_gif_keeps_evenly_spaced_frames_and_the_last(tmp_path: Path) -> None:

@@ -80,8 +80,8 @@ def _write(frame: pd.DataFrame, path: Path) -> str:
 
 
 def test_the_market_file_given_as_demand_is_refused_naming_the_column() -> None:
-    market = resolve("microgrid/market/test")
-    with pytest.raises(DataFileError, match=rf"demand file `{re.escape(str(market))}` has column `bid` of the market"):
+    market = resolve("microgrid/market/test")  # named resolved: the data folder may be reached through a link
+    with pytest.raises(DataFileError, match=rf"demand file `{re.escape(str(market.resolve()))}` has column `bid` of"):
         gym4real.make("gym4real/microgrid-v0", data={"demand": str(market)})
 
 
@@ -149,6 +149,29 @@ def test_a_folder_given_as_a_data_file_is_called_a_folder(tmp_path: Path) -> Non
 def test_a_folder_given_as_wds_network_is_called_a_folder(tmp_path: Path) -> None:
     with pytest.raises(DataFileError, match=rf"network file `{re.escape(str(tmp_path))}` is a folder, not a file"):
         gym4real.make("gym4real/wds-v0", network=str(tmp_path))
+
+
+@pytest.mark.parametrize(
+    ("inserted", "problem"),
+    [
+        (b"\xff\x00", r"is not UTF-8 text \(line {line}, byte {column}: byte 0xff"),
+        (b"\x00", r"is not text \(line {line}, column {column}: control character U\+0000\)"),
+    ],
+    ids=["ff-00", "nul"],
+)
+def test_binary_bytes_in_a_wds_network_field_are_refused_naming_the_line(
+    tmp_path: Path, inserted: bytes, problem: str
+) -> None:
+    """EPANET reads `3657.6<ff 00>001` as 3657.6 and simulates another network: the file is refused instead."""
+    source = resolve("wds/anytown").read_bytes()
+    field = source.index(b"3657.6001")
+    line = source.count(b"\n", 0, field) + 1
+    column = field - source.rfind(b"\n", 0, field) + len(b"3657.6")
+    network = tmp_path / "anytown.inp"
+    network.write_bytes(source[:field] + b"3657.6" + inserted + source[field + len(b"3657.6") :])
+    pattern = rf"network file `{re.escape(str(network))}` " + problem.format(line=line, column=column)
+    with pytest.raises(DataFileError, match=pattern):
+        gym4real.make("gym4real/wds-v0", network=str(network))
 
 
 def test_a_non_utf8_wds_catalogue_is_a_data_file_error(tmp_path: Path) -> None:

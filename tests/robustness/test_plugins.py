@@ -53,6 +53,30 @@ def test_a_plugin_that_sorts_first_cannot_take_over_another_domains_id(
         registry(strict=True)
 
 
+@pytest.mark.parametrize("case", ["id-claimed-twice", "entry-point-name-claimed-twice"])
+def test_gymnasium_make_of_an_id_lost_to_a_conflict_names_both_distributions_and_the_fix(
+    fake_plugins: FakePlugins, plugin_source: Callable[..., str], case: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`gymnasium.make`, not only `gym4real.make`: our error, never Gymnasium's bare `NameNotFound`."""
+    import gymnasium as gym
+
+    from gym4real.core.registry import register_envs
+
+    name = "aaa" if case == "id-claimed-twice" else "dam"
+    reg = fake_plugins(
+        ("aaa-envs", "1.0", {name: "g4r_fake_aaa"}), modules={"g4r_fake_aaa": plugin_source(["gym4real/dam-v0"])}
+    )
+    assert "gym4real/dam-v0" not in reg.envs
+    monkeypatch.delitem(gym.registry, "gym4real/dam-v0")  # as in a fresh process, where it was never registered
+    register_envs()
+    with pytest.raises(EnvUnavailableError) as raised:
+        gym.make("gym4real/dam-v0")
+    message = str(raised.value)
+    assert "aaa-envs" in message and "gym4real-dam" in message
+    assert "`pip uninstall aaa-envs`" in message and "`pip uninstall gym4real-dam`" in message
+    assert gym.make("gym4real/elevator-v0").unwrapped.spec.id == "gym4real/elevator-v0"
+
+
 @pytest.mark.parametrize(
     "statement",
     [

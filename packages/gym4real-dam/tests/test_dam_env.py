@@ -344,4 +344,4 @@ def test_multi_objective_id_gives_the_five_components() -> None:
 def test_render_ansi() -> None:
     env = DamEnv(render_mode="ansi", preset="test")
     env.reset()
-    assert env.render().startswith("1950 day   1: level +0.350 m")
+    assert env.render().startswith("1950 day   1 start: level +0.350 m")

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gym4real.core.canvas import BLUE, GREEN, LIGHT, ORANGE, RED, WATER
+from gym4real.core.canvas import BLUE, GREEN, INK, LIGHT, ORANGE, RED, WATER, Canvas
 from gym4real.dam.env import DamEnv
-from gym4real.dam.rendering import FLOWS, GAUGE, LEVELS
+from gym4real.dam.rendering import FLOWS, GAUGE, LABEL_AT, LEVELS
 
 
 def _y(value: float, span: tuple[float, float], box: tuple[float, float, float, float]) -> float:
@@ -50,3 +50,32 @@ def test_traces_hold_the_level_and_the_release_of_each_day_so_far() -> None:
         assert _near(frame, x, _y(releases[day - 1], (0.0, q_max), FLOWS), GREEN), day
     future = frame[int(LEVELS[1]) + 2 : int(LEVELS[3]) - 1, round(LEVELS[0] + 42 / h * width) :]
     assert not (future == BLUE).all(-1).any()  # no trace beyond today
+
+
+def _label_pixels(text: str) -> np.ndarray:
+    """The label band of a frame showing ``text`` at the label's place."""
+    canvas = Canvas(480, 320)
+    canvas.text(LABEL_AT, text, INK)
+    return canvas.array()[10:22, 185:370]
+
+
+def test_each_frame_names_the_day_the_lake_is_at_and_the_last_is_the_years_last_day() -> None:
+    """A 365-day year: day 1 at its start, then the end of each day just simulated, up to day 365 (not day 1)."""
+    env = DamEnv(render_mode="rgb_array", preset="test")
+    ansi = DamEnv(render_mode="ansi", preset="test")
+    env.reset()
+    ansi.reset()
+    h = env.config.sim_horizon
+    assert h == 365 and env.episode.year == 1950  # not a leap year: step t ends day t
+
+    def shows(frame: np.ndarray, text: str) -> bool:
+        return bool((frame[10:22, 185:370] == _label_pixels(text)).all())
+
+    assert shows(env.render(), f"day   1 start  (step 0/{h})")
+    assert ansi.render().startswith("1950 day   1 start: ")
+    for t in range(1, h + 1):
+        env.step(np.array([100.0], dtype=np.float32))
+        ansi.step(np.array([100.0], dtype=np.float32))
+        if t in (1, 2, 200, h):
+            assert shows(env.render(), f"day {t:3d} end  (step {t}/{h})"), t
+            assert ansi.render().startswith(f"1950 day {t:3d} end: "), t

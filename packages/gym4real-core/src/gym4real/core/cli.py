@@ -66,21 +66,27 @@ def _cmd_bench(args: argparse.Namespace) -> None:
 
 
 def _cmd_record(args: argparse.Namespace) -> None:
-    from gym4real.core.record import record
+    import warnings
 
-    paths = record(
-        args.env_id,
-        args.policy,
-        episodes=args.episodes,
-        seed=args.seed,
-        out=args.out,
-        fps=args.fps,
-        env_kwargs=_env_kwargs(args.env),
-        max_steps=args.max_steps,
-        mp4=not args.no_mp4,
-        gif_frames=args.gif_frames,
-        progress=not args.quiet,
-    )
+    from gym4real.core.record import NoMp4Warning, record
+
+    with warnings.catch_warnings(record=True) as caught:  # each warning of the recording said in one line
+        warnings.simplefilter("always", NoMp4Warning)
+        paths = record(
+            args.env_id,
+            args.policy,
+            episodes=args.episodes,
+            seed=args.seed,
+            out=args.out,
+            fps=args.fps,
+            env_kwargs=_env_kwargs(args.env),
+            max_steps=args.max_steps,
+            mp4=not args.no_mp4,
+            gif_frames=args.gif_frames,
+            progress=not args.quiet,
+        )
+    for warning in caught:
+        print(f"gym4real: warning: {warning.message}", file=sys.stderr)
     for path in paths:
         print(f"wrote {path}")
 

@@ -7,6 +7,7 @@ for ``gym4real info`` (:func:`summary_text`, or JSON with ``--json``).
 from __future__ import annotations
 
 import inspect
+import re
 import textwrap
 from dataclasses import asdict, dataclass
 from typing import Any
@@ -98,6 +99,7 @@ def env_interface(env_id: str) -> dict[str, Any]:
             out["max_episode_steps"] = env.spec.max_episode_steps
         if env.has_wrapper_attr("reward_space"):
             out["reward_space"] = str(env.get_wrapper_attr("reward_space"))
+            out["reward_components"] = list(getattr(env.unwrapped, "components", ()))
         inner = getattr(env.unwrapped, "env", env).unwrapped  # a vector-reward variant's episodes are its env's
         out["episode_end"] = docstring_section(type(inner).__doc__ or "", "Episode End")
     finally:
@@ -141,8 +143,13 @@ def _listing(names: list[str] | tuple[str, ...], most: int = 8) -> str:
     return shown + (f", ... ({len(names)} in all)" if len(names) > most else "")
 
 
+def plain(text: str) -> str:
+    """Text for a terminal: the reST literals of docstrings without their double backticks."""
+    return re.sub(r"``(.+?)``", r"\1", text)
+
+
 def summary_text(record: dict[str, Any], width: int = 100) -> str:
-    """The :func:`summary` of an env as labelled lines, wrapped at ``width`` characters."""
+    """The :func:`summary` of an env as labelled lines, wrapped at ``width`` characters (reST markup removed)."""
     flags = [f.replace("_", " ") for f, on in record["flags"].items() if on]
     iface = record["interface"]
     rows = [
@@ -153,7 +160,10 @@ def summary_text(record: dict[str, Any], width: int = 100) -> str:
         rows.append(("spaces", f"unavailable: the env could not be made ({iface['error']})"))
     else:
         rows += [("observation", iface["observation_space"]), ("action", iface["action_space"])]
-        rows.append(("reward", iface.get("reward_space", "a float")))
+        reward = iface.get("reward_space", "a float")
+        if iface.get("reward_components"):
+            reward += f", one entry per reward component: {', '.join(iface['reward_components'])}"
+        rows.append(("reward", reward))
         steps = f" (time limit {iface['max_episode_steps']} steps)" if "max_episode_steps" in iface else ""
         rows.append(("episode end", (iface["episode_end"] or "see the env's docstring") + steps))
     rows.append(("presets", f"{', '.join(record['presets'])} (default: {record['presets'][0]})"))
@@ -171,9 +181,9 @@ def summary_text(record: dict[str, Any], width: int = 100) -> str:
         rows.append(("training data", record["training_data"]))
     rows += [(str(key), str(value)) for key, value in record["extra"].items()]
     label = max(len(k) for k, _ in rows) + 2
-    lines = [f"{record['id']}: {record['description']}"]
+    lines = [plain(f"{record['id']}: {record['description']}")]
     for key, value in rows:
         lines += textwrap.wrap(
-            value, width, initial_indent=f"{key:<{label}}", subsequent_indent=" " * label, break_on_hyphens=False
+            plain(value), width, initial_indent=f"{key:<{label}}", subsequent_indent=" " * label, break_on_hyphens=False
         )
     return "\n".join(lines)

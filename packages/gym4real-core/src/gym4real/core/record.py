@@ -1,21 +1,25 @@
 """Videos of a policy acting in an environment: ``gym4real record`` (an MP4 and an animated GIF per episode).
 
 Each frame is the env's ``render_mode="rgb_array"`` frame under a caption with the env, the policy, the
-episode, the step and the return so far. The MP4 holds every step and is written while the episode
-runs (a year of hourly frames never sits in memory); it needs MoviePy (``pip install
-"gym4real-core[video]"``). The GIF, for documentation, holds at most ``gif_frames`` evenly spaced frames
-(every k-th step, k doubling as the episode grows) and is written with Pillow.
+episode, the step and the return so far; an env that declares ``rgb_array_list`` itself (a robot whose
+step is a whole pick) is filmed with it: every frame of each step. The MP4 holds every step and is
+written while the episode runs (a year of hourly frames never sits in memory); it needs MoviePy (``pip install
+"gym4real-core[video]"``): without it the GIF alone is written, with a :class:`NoMp4Warning` saying so.
+The GIF, for documentation, holds at most ``gif_frames`` evenly spaced frames (every k-th step, k
+doubling as the episode grows) and is written with Pillow.
 """
 
 from __future__ import annotations
 
 import re
+import warnings
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
+from gymnasium.envs.registration import load_env_creator
 from PIL import Image
 
 from gym4real.core.benchmark import policy_name, run_episode
@@ -59,13 +63,29 @@ class GifFrames:
         first.save(path, save_all=True, append_images=rest, duration=duration, loop=0, optimize=True)
 
 
-def _mp4_writer(path: Path, size: tuple[int, int], fps: float) -> Any:
+#: Why an MP4 cannot be written, and the fix.
+MP4_NEEDS_MOVIEPY = 'writing an MP4 needs MoviePy: `pip install "gym4real-core[video]"`'
+
+
+class NoMp4Warning(UserWarning):
+    """MoviePy is missing: the GIF is written without the MP4."""
+
+
+def _mp4_writer_class() -> Any:
+    """MoviePy's FFmpeg writer, or None when MoviePy is not installed."""
     try:
         from moviepy.video.io.ffmpeg_writer import FFMPEG_VideoWriter
-    except ImportError as exc:
-        msg = 'writing an MP4 needs MoviePy: `pip install "gym4real-core[video]"` (or pass `mp4=False`, `--no-mp4`)'
-        raise Gym4RealError(msg) from exc
-    return FFMPEG_VideoWriter(str(path), size, fps, codec="libx264", pixel_format="yuv420p")
+    except ImportError:
+        return None
+    return FFMPEG_VideoWriter
+
+
+def _render_mode(env_id: str) -> str:
+    """``rgb_array_list`` where the env's class declares it (frames within a step), else ``rgb_array``."""
+    entry_point = gym.spec(env_id).entry_point
+    creator = load_env_creator(entry_point) if isinstance(entry_point, str) else entry_point
+    modes = getattr(creator, "metadata", {}).get("render_modes", ())
+    return "rgb_array_list" if "rgb_array_list" in modes else "rgb_array"
 
 
 def policy_label(policy: str | Callable[[Any], Any]) -> str:
@@ -101,22 +121,31 @@ def record(
         fps: Frames per second; default the env's ``metadata["render_fps"]``.
         env_kwargs: Keyword arguments of ``gymnasium.make``.
         max_steps: Cut each episode after this many steps (a Gymnasium time limit).
-        mp4: Write the MP4 (needs MoviePy).
+        mp4: Write the MP4 (needs MoviePy; without it, the GIF alone is written and :class:`NoMp4Warning` says
+            so).
         gif: Write the GIF.
         gif_frames: Most frames in a GIF.
         progress: Show a progress bar of the steps.
 
     Returns:
         The paths written.
+
+    Raises:
+        Gym4RealError: The MP4 alone is asked for and MoviePy is missing.
     """
     env_spec(env_id)  # a clear error for an unknown or unavailable id
     if episodes < 1:
         raise ConfigError(f"`episodes` must be a positive number, not {episodes}")
     if not (mp4 or gif):
         raise ConfigError("nothing to write: keep the MP4, the GIF or both")
+    writer_class = _mp4_writer_class() if mp4 else None
+    if mp4 and writer_class is None:
+        if not gif:
+            raise Gym4RealError(MP4_NEEDS_MOVIEPY)
+        warnings.warn(f"{MP4_NEEDS_MOVIEPY}; writing the GIF only", NoMp4Warning, stacklevel=2)
     if fps is not None and not fps > 0:
         raise ConfigError(f"`fps` must be a positive number of frames per second, not {fps}")
-    kwargs: dict[str, Any] = {**(env_kwargs or {}), "render_mode": "rgb_array"}
+    kwargs: dict[str, Any] = {**(env_kwargs or {}), "render_mode": _render_mode(env_id)}
     if max_steps is not None:
         kwargs["max_episode_steps"] = max_steps
     env = gym.make(env_id, **kwargs)
@@ -134,7 +163,9 @@ def record(
         acting = make_policy(env_id, policy, env)
         for i in range(episodes):
             stem = folder / re.sub(r"[^\w.-]+", "_", f"{env_id.split('/')[-1]}-{label}-seed{seed + i}")
-            written += _record_episode(env, acting, seed + i, stem, rate, mp4, gif, gif_frames, bar, (env_id, label))
+            written += _record_episode(
+                env, acting, seed + i, stem, rate, writer_class, gif, gif_frames, bar, (env_id, label)
+            )
     finally:
         env.close()
         if bar is not None:
@@ -148,7 +179,7 @@ def _record_episode(
     seed: int,
     stem: Path,
     fps: float,
-    mp4: bool,
+    writer_class: Any,
     gif: bool,
     gif_frames: int,
     bar: Any,
@@ -159,17 +190,20 @@ def _record_episode(
 
     def on_step(step: int, total: float) -> None:
         nonlocal writer
-        frame = env.render()
-        if not isinstance(frame, np.ndarray):
-            raise Gym4RealError(f"`{names[0]}` rendered {type(frame).__name__}, not an rgb_array frame")
+        rendered = env.render()
         lines = (f"{names[0]}  policy {names[1]}", f"seed {seed}  step {step}  return {total:.6g}")
-        frame = captioned(frame, lines)
-        if mp4:
-            if writer is None:
-                writer = _mp4_writer(stem.with_suffix(".mp4"), (frame.shape[1], frame.shape[0]), fps)
-            writer.write_frame(frame)
-        if keeper is not None:
-            keeper.add(frame)
+        for frame in rendered if isinstance(rendered, list) else [rendered]:
+            if not isinstance(frame, np.ndarray):
+                raise Gym4RealError(f"`{names[0]}` rendered {type(frame).__name__}, not an rgb_array frame")
+            shown = captioned(frame, lines)
+            if writer_class is not None:
+                if writer is None:
+                    size = (shown.shape[1], shown.shape[0])
+                    path = str(stem.with_suffix(".mp4"))
+                    writer = writer_class(path, size, fps, codec="libx264", pixel_format="yuv420p")
+                writer.write_frame(shown)
+            if keeper is not None:
+                keeper.add(shown)
         if bar is not None and step:
             bar.update()
 
@@ -178,7 +212,7 @@ def _record_episode(
     finally:
         if writer is not None:
             writer.close()
-    paths = [stem.with_suffix(".mp4")] if mp4 else []
+    paths = [stem.with_suffix(".mp4")] if writer_class is not None else []
     if keeper is not None:
         keeper.save(stem.with_suffix(".gif"), fps)
         paths.append(stem.with_suffix(".gif"))

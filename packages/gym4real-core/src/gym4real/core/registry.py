@@ -20,7 +20,7 @@ import os
 import sys
 from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import Any, cast
+from typing import Any, NoReturn, cast
 
 import importlib_metadata
 import pluggy
@@ -51,6 +51,8 @@ CANONICAL_IDS: tuple[str, ...] = (
 
 #: Entry point of the vector-reward variants (``gym4real/dam-mo-v0``) of multi-objective envs.
 MULTI_OBJECTIVE = "gym4real.wrappers.multi_objective:MultiObjective"
+#: Entry point Gymnasium holds for an id whose plugin failed: making it raises why, and the fix.
+UNAVAILABLE = "gym4real.core.registry:unavailable"
 
 logger = logging.getLogger("gym4real.plugins")
 
@@ -447,24 +449,52 @@ def env_spec(env_id: str) -> EnvSpec:
     reg = registry()
     if env_id in reg.envs:
         return reg.envs[env_id]
+    raise _unavailable_error(reg, env_id)
+
+
+def unavailable(env_id: str, **_: Any) -> NoReturn:
+    """The entry point of an id whose plugin failed (:data:`UNAVAILABLE`): raise why it cannot be made.
+
+    Raises:
+        EnvUnavailableError: The plugin's error, naming its distribution(s) and the fix.
+    """
+    reg = registry()
+    if env_id in reg.envs:  # its plugin loads now (the registry was rediscovered)
+        msg = f"`{env_id}` was unavailable when Gymnasium's registry was filled: call `gym4real.register_envs()`"
+        raise EnvUnavailableError(msg)
+    raise _unavailable_error(reg, env_id)
+
+
+def _unavailable_error(reg: Registry, env_id: str) -> EnvUnavailableError:
+    """The error of an id that is not registered: its plugin's failure, a missing domain, or the nearest ids."""
     domain = domain_of(env_id)
     failed = [e for e in reg.errors if e.plugin in (domain, reg.rejected.get(env_id))]
     if failed:
-        raise EnvUnavailableError(f"environment `{env_id}` is provided by {failed[0]}")
+        return EnvUnavailableError(f"environment `{env_id}` is provided by {failed[0]}")
     if env_id in CANONICAL_IDS or (domain in KNOWN_DOMAINS and domain not in reg.distributions):
         from gym4real.core.install_hint import install_command
 
         dist = KNOWN_DOMAINS.get(domain, f"gym4real-{domain}")
-        raise EnvUnavailableError(
+        return EnvUnavailableError(
             f"environment `{env_id}` is provided by `{dist}`, which is not installed: {install_command(dist)}"
         )
     near = difflib.get_close_matches(env_id, list(reg.envs), n=3, cutoff=0.5)
     hint = f" Did you mean {', '.join(f'`{n}`' for n in near)}?" if near else ""
-    raise EnvUnavailableError(f"unknown environment `{env_id}`.{hint} Installed: {sorted(reg.envs)}")
+    return EnvUnavailableError(f"unknown environment `{env_id}`.{hint} Installed: {sorted(reg.envs)}")
+
+
+def _failed_ids(reg: Registry) -> list[str]:
+    """The ids of the plugins that failed: the ids they returned, and the paper's ids of a failed domain."""
+    failed = {e.plugin for e in reg.errors}
+    ids = {*reg.rejected, *(i for i in CANONICAL_IDS if domain_of(i) in failed)}
+    return sorted(ids - set(reg.envs))
 
 
 def register_envs() -> list[str]:
     """Register every discovered environment with Gymnasium (string entry points, no heavy import).
+
+    The id of a plugin that failed is registered with :data:`UNAVAILABLE`, so that ``gymnasium.make`` raises
+    the plugin's error and its fix, not Gymnasium's ``NameNotFound``.
 
     Returns:
         The ids registered by this call (ids already registered with the same entry point are skipped).
@@ -487,4 +517,8 @@ def register_envs() -> list[str]:
                 disable_env_checker=spec.id in reg.multi_objective,
             )
             done.append(spec.id)
+    for env_id in _failed_ids(reg):
+        old = gymnasium.registry.get(env_id)
+        if old is None or old.entry_point != UNAVAILABLE:
+            gymnasium.register(id=env_id, entry_point=UNAVAILABLE, kwargs={"env_id": env_id}, disable_env_checker=True)
     return done

@@ -1,4 +1,4 @@
-"""Ray RLlib: every installed Gym4ReaL environment registered with Ray Tune's registry.
+"""Ray RLlib: every installed scalar-reward Gym4ReaL environment registered with Ray Tune's registry.
 
 Install the ``ray`` extra of core (``ray[rllib]``, which pins gymnasium 1.2.2, the floor Gym4ReaL
 supports). On a cluster, start the head with ``ray start --head``, join workers with
@@ -16,6 +16,19 @@ arguments), so heavy handles (EPANET projects, MuJoCo renderers, ONNX sessions) 
 Envs with a native batched ``VectorEnv`` (dam, elevator, microgrid, trading) can step all of a
 runner's copies at once: ``.env_runners(gym_env_vectorize_mode="vector_entry_point",
 num_envs_per_env_runner=N)``.
+
+The vector-reward ids (``gym4real/dam-mo-v0``...) are not registered: RLlib's env checker and learners
+take a float reward. Train on one of them through a scalarising wrapper, for example MO-Gymnasium's
+``LinearReward`` (extra ``mo``) with one weight per reward component (``env.unwrapped.components``;
+unit weights give the scalar env's reward)::
+
+    import numpy as np
+    from mo_gymnasium.wrappers import LinearReward
+    from ray.tune.registry import register_env
+
+    weights = np.array([1.0, 1.0, 1.0, 0.5, 1.0])  # deficit, overflow, starving, wasted_water, clipping
+    register_env("dam-weighted", lambda config: LinearReward(make_env("gym4real/dam-mo-v0", config), weights))
+    algo = PPOConfig().environment("dam-weighted").build_algo()
 """
 
 from __future__ import annotations
@@ -63,7 +76,10 @@ def make_env(
 
 
 def register_all(flatten: bool = False) -> list[str]:
-    """Register every installed environment with Ray Tune under its Gymnasium id; return the ids.
+    """Register every installed scalar-reward environment with Ray Tune under its Gymnasium id; return the ids.
+
+    The vector-reward variants (``gym4real/dam-mo-v0``) are left out: RLlib runs them through a scalarising
+    wrapper (see the module's docstring).
 
     Args:
         flatten: Flatten observations (for envs with ``Dict`` or discrete observations, such as the elevator).
@@ -73,7 +89,7 @@ def register_all(flatten: bool = False) -> list[str]:
     except ImportError as exc:
         msg = f'RLlib integration needs ray ({exc.name} is missing): `pip install "gym4real-core[ray]"`'
         raise ImportError(msg) from exc
-    ids = list_envs()
+    ids = list_envs(multi_objective=False)
     for env_id in ids:
         register_env(env_id, lambda config, env_id=env_id: make_env(env_id, config, flatten))
     return ids

@@ -654,15 +654,19 @@ class DamEnv(gym.Env[np.ndarray, np.ndarray]):
         """The current state: ``ansi``, one line of text; ``rgb_array``, an ``H x W x 3`` uint8 frame.
 
         The text holds year, day, level, storage and average demand; the frame (:mod:`gym4real.dam.rendering`)
-        the lake against its thresholds, today's flows and the episode's traces.
+        the lake against its thresholds, today's flows and the episode's traces. Both name the day the state
+        is at: the start of the first day after ``reset``, else the end of the day just simulated.
         """
-        day = self._obs_day[self._t] + 1
+        t = self._t
+        day = self._obs_day[t - 1 if t else 0] + 1
         if self._renderer is not None:
             ep = self._ep
             return self._renderer.frame(ep.year, day, self._levels, ep.inflow, ep.demand)
         if self.render_mode != "ansi":
             return None
+        from gym4real.dam.rendering import day_label
+
         return (
-            f"{self._ep.year} day {day:3d}: level {self._level:+.3f} m, storage {self._storage / 1e6:.1f} Mm3, "
+            f"{self._ep.year} {day_label(day, t)}: level {self._level:+.3f} m, storage {self._storage / 1e6:.1f} Mm3, "
             f"average demand {self._ead:.1f} m3/s\n"
         )

@@ -17,6 +17,18 @@ WIDTH, HEIGHT = 480, 320
 GAUGE = (24.0, 44.0, 60.0, 280.0)
 LEVELS = (120.0, 44.0, 468.0, 150.0)
 FLOWS = (120.0, 182.0, 468.0, 280.0)
+#: Where the frame's day and step label starts.
+LABEL_AT = (190.0, 12.0)
+
+
+def day_label(day: int, t: int) -> str:
+    """The day a state is at: ``day   1 start`` before the first day, else ``day 365 end`` (the day just simulated).
+
+    Args:
+        day: 1-based day of year: of the first day when ``t`` is 0, else of the last day simulated.
+        t: Days simulated so far.
+    """
+    return f"day {day:3d} {'end' if t else 'start'}"
 
 
 class DamRenderer:
@@ -72,7 +84,7 @@ class DamRenderer:
 
         Args:
             year: The episode's year.
-            day: 1-based day of year of the next decision.
+            day: 1-based day of year: of the first day before any is simulated, else of the last day simulated.
             levels: Level at the start and after each day so far (m).
             inflow: The episode's daily inflow (m3/s), all days.
             demand: The episode's daily demand (m3/s), all days.
@@ -84,7 +96,7 @@ class DamRenderer:
         flood_days = sum(1 for v in levels[1:] if v > self.flood)
         starving_days = sum(1 for v in levels[1:] if v < self.starving)
         c.text((8, 6), f"Lake Como {year}", INK, scale=2)
-        c.text((190, 12), f"day {day:3d}  (step {t}/{self.horizon})", INK)
+        c.text(LABEL_AT, f"{day_label(day, t)}  (step {t}/{self.horizon})", INK)
         c.text((WIDTH - 8, 8), f"flood days {flood_days}", RED if flood_days else GREY, align="right")
         c.text((WIDTH - 8, 20), f"starving days {starving_days}", ORANGE if starving_days else GREY, align="right")
 

@@ -9,6 +9,7 @@ from typing import Any, ClassVar
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
+from gymnasium.core import RenderFrame
 
 from gym4real.core.actions import box_action
 from gym4real.robofeeder.config import PickingConfig, RoboFeederConfig
@@ -21,12 +22,19 @@ from gym4real.robofeeder.simulator import PickOutcome, Simulator, tilt_of, yaw_o
 ORACLE_OFFSET = np.array([0.0, -0.003])
 #: An object lies flat when its z axis is within this angle of the vertical (rad).
 FLAT_TILT = 0.35
+#: Frames per second of ``render_mode="rgb_array_list"``: a pick's controller ticks, about 4x slower than simulated.
+PICK_FPS = 15
 
 
 class RoboFeederBaseEnv(gym.Env[np.ndarray, Any]):
-    """Shared machinery: config, simulator, detector, rendering, seeding, pickling and the oracle."""
+    """Shared machinery: config, simulator, detector, rendering, seeding, pickling and the oracle.
 
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 2}
+    ``render_mode="rgb_array"``: the frame of the render camera after each step (one per pick).
+    ``render_mode="rgb_array_list"``: every frame since the last ``render()``: after ``reset``, the start;
+    after a step, the arm at each tick of its pick (robot shown), then the frame the step ends on.
+    """
+
+    metadata = {"render_modes": ["rgb_array", "rgb_array_list"], "render_fps": 2}
     config_class: ClassVar[type[RoboFeederConfig]] = PickingConfig
 
     def __init__(
@@ -43,6 +51,9 @@ class RoboFeederBaseEnv(gym.Env[np.ndarray, Any]):
             msg = f"`render_mode` must be one of {self.metadata['render_modes']} or None, not {render_mode!r}"
             raise ValueError(msg)
         self.render_mode = render_mode
+        if render_mode == "rgb_array_list":
+            self.metadata = {**self.metadata, "render_fps": PICK_FPS}
+        self._frames: list[RenderFrame] = []
         self.sim = Simulator(self.config)
         self.detector: Detector = make_detector(
             self.config.detector, self.config.detector_threshold, self.config.detector_min_area, self._true_pixels
@@ -61,13 +72,30 @@ class RoboFeederBaseEnv(gym.Env[np.ndarray, Any]):
         config, preset, render_mode, overrides = state["init_args"]
         self.__init__(config, preset=preset, render_mode=render_mode, **overrides)  # type: ignore[misc]
 
-    def render(self) -> np.ndarray | None:
-        """The colour view of `render_camera` (uint8, H x W x 3) when ``render_mode="rgb_array"``."""
+    def render(self) -> np.ndarray | list[RenderFrame] | None:
+        """The colour view of `render_camera` (uint8, H x W x 3), or the frames since the last call.
+
+        ``rgb_array``: the last frame; ``rgb_array_list``: the frames since the last call (a whole pick per step).
+        """
+        if self.render_mode == "rgb_array_list":
+            frames, self._frames = self._frames, []
+            return frames
         if self.render_mode != "rgb_array":
             return None
+        return self._view()
+
+    def _view(self) -> np.ndarray:
         if self.config.render_camera == "top_down":
             return self._frame.copy()
         return self.sim.render(self.config.render_camera)
+
+    def _film(self) -> None:
+        """Keep a frame of the arm mid-pick (``rgb_array_list``)."""
+        self._frames.append(self.sim.render(self.config.render_camera, robot=True))
+
+    def _pick(self, xy: np.ndarray, theta: float, pixel: np.ndarray) -> PickOutcome:
+        """The simulator's pick, filmed tick by tick under ``render_mode="rgb_array_list"``."""
+        return self.sim.pick(xy, theta, pixel, on_tick=self._film if self.render_mode == "rgb_array_list" else None)
 
     def close(self) -> None:
         """Free the renderer (its OpenGL context)."""
@@ -77,6 +105,8 @@ class RoboFeederBaseEnv(gym.Env[np.ndarray, Any]):
     # ------------------------------------------------------------------ helpers
     def _observe_frame(self) -> np.ndarray:
         self._frame = self.sim.render("top_down")
+        if self.render_mode == "rgb_array_list":
+            self._frames.append(self._view())
         return self._frame
 
     def _true_pixels(self) -> np.ndarray:
@@ -181,7 +211,8 @@ class RoboFeederPickingEnv(RoboFeederBaseEnv):
     ## Arguments
 
     ``config`` / ``preset`` ("default", "test") / keyword overrides of :class:`PickingConfig`
-    (``fidelity``, ``n_objects``, ``detector``, ``fixes``, ...); ``render_mode="rgb_array"``.
+    (``fidelity``, ``n_objects``, ``detector``, ``fixes``, ...); ``render_mode="rgb_array"`` (a frame per
+    step) or ``"rgb_array_list"`` (every tick of each pick).
     ``fidelity="upstream"`` reproduces the reference's behaviour; the corrected default fixes:
     seeding from ``reset(seed=)`` (positions and orientations), in-memory scene, per-instance controller,
     release at the place pose (``fixes.release_at_place``), true yaw error modulo pi
@@ -240,6 +271,7 @@ class RoboFeederPickingEnv(RoboFeederBaseEnv):
         """
         super().reset(seed=seed)
         options = options or {}
+        self._frames = []
         self._spawn(options)
         self._steps = 0
         obs = self._observe()
@@ -261,7 +293,7 @@ class RoboFeederPickingEnv(RoboFeederBaseEnv):
         pixel = self._target_pixel(a)
         theta = self._theta(a[2])
         xy = self.sim.camera.pixel_to_world(pixel)
-        outcome = self.sim.pick(xy, theta, pixel)
+        outcome = self._pick(xy, theta, pixel)
         components, info = self._reward(outcome, xy)
         self._steps += 1
         obs = self._observe()

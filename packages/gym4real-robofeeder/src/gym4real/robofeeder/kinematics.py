@@ -17,7 +17,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from gym4real.robofeeder._gl import mujoco
 
@@ -149,6 +148,8 @@ class ArmKinematics:
         limits, finite-difference Jacobian. Its best effort is returned, converged or not (``ok`` says which,
         with the tolerances of :meth:`solve`).
         """
+        from scipy.optimize import least_squares  # the upstream mode only: SciPy costs ~0.8 s to import
+
         target = np.asarray(target, dtype=float)
 
         def residuals(q: np.ndarray) -> np.ndarray:

@@ -131,6 +131,7 @@ class RoboFeederPlanningEnv(RoboFeederBaseEnv):
         """
         super().reset(seed=seed)
         options = options or {}
+        self._frames = []
         placements, yaws = options.get("placements"), options.get("yaws")
         self.sim.reset(
             self.np_random,
@@ -198,7 +199,7 @@ class RoboFeederPlanningEnv(RoboFeederBaseEnv):
                 low = self._low_level(slot)
                 pixel = self._centres[slot] + low[:2] * (self.crop_size / 2.0)
                 theta = (low[2] + 1.0) * np.pi / 2.0
-                outcome = self.sim.pick(self.sim.camera.pixel_to_world(pixel), theta, pixel)
+                outcome = self._pick(self.sim.camera.pixel_to_world(pixel), theta, pixel)
                 comps["picked" if outcome.success else "failed"] = 1.0 if outcome.success else -1.0
                 info.update(
                     success=outcome.success,

@@ -139,13 +139,13 @@ class LazyRenderer:
                 renderer.scene.flags[flag] = 0
         return renderer
 
-    def render(self, data: mujoco.MjData, camera: str = "top_down") -> np.ndarray:
-        """An RGB frame (uint8, height x width x 3) of ``camera``."""
+    def render(self, data: mujoco.MjData, camera: str = "top_down", robot: bool = False) -> np.ndarray:
+        """An RGB frame (uint8, height x width x 3) of ``camera``; ``robot`` shows the arm in the top-down view too."""
         with _LOCK:
             if self._renderer is None:
                 self._renderer = self._open()
                 _OPEN.add(self)
-            option = self._top_down_option if camera == "top_down" else self._option
+            option = self._top_down_option if camera == "top_down" and not robot else self._option
             self._renderer.update_scene(data, camera=camera, scene_option=option)
             return np.asarray(self._renderer.render())
 

@@ -8,6 +8,7 @@ explicit tick loop of :meth:`Simulator.pick`, with the reference's tick timings)
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -203,10 +204,10 @@ class Simulator:
         """Free the renderer."""
         self.renderer.close()
 
-    def render(self, camera: str = "top_down") -> np.ndarray:
-        """RGB frame (uint8, H x W x 3) of ``camera``."""
+    def render(self, camera: str = "top_down", robot: bool = False) -> np.ndarray:
+        """RGB frame (uint8, H x W x 3) of ``camera`` (``robot``: with the arm, which the observation hides)."""
         mujoco.mj_forward(self.model, self.data)
-        return self.renderer.render(self.data, camera)
+        return self.renderer.render(self.data, camera, robot)
 
     def object_positions(self) -> np.ndarray:
         """Body origins of the objects (N x 3, world)."""
@@ -369,13 +370,17 @@ class Simulator:
             wp3 = self.kin.solve_from(place, [wp0.q, self.home_q], fixed_j6=theta)
         else:
             wp3 = self.kin.solve_free_yaw(place, wp0.q)
-        _, rot = self.kin.forward(np.concatenate([wp1.q[:5], [theta]]))
-        gripper_yaw = float(np.arctan2(rot[1, 0], rot[0, 0]))
+        gripper_yaw = self._gripper_yaw(wp1, theta)
         s = np.linspace(0.0, 1.0, SAMPLES_PER_SEGMENT)[:, None]
         segments = [(start, wp0.q), (wp0.q, wp1.q), (wp1.q, wp0.q), (wp0.q, wp3.q)]
         rows = np.vstack([a + s * (b - a) for a, b in segments])
         ok = wp0.ok and wp1.ok and wp3.ok
         return rows, wp1.position_error, gripper_yaw, ok
+
+    def _gripper_yaw(self, pick_pose: IKResult, theta: float) -> float:
+        """World yaw (rad) of the flange x axis at the pick pose with joint 6 at ``theta``."""
+        _, rot = self.kin.forward(np.concatenate([pick_pose.q[:5], [theta]]))
+        return float(np.arctan2(rot[1, 0], rot[0, 0]))
 
     def grasp_angle(self, xy: np.ndarray, yaw: float) -> float:
         """Joint-6 angle (rad, in [0, 2 pi)) aligning the gripper x axis with ``yaw`` at a pick at world ``xy``.
@@ -396,11 +401,12 @@ class Simulator:
             self._yaw_cache[key] = c
         return float((c - yaw) % (2.0 * np.pi))
 
-    def _run_controller(self, plan: np.ndarray, theta: float) -> np.ndarray:
+    def _run_controller(self, plan: np.ndarray, theta: float, on_tick: Callable[[], None] | None) -> np.ndarray:
         """Execute the plan with the reference's tick timings; return the object positions at the last tick.
 
         The reference's control callback runs inside ``mj_step`` before the integration: a tick at time t
         applies its command to the step from t, and the pick ends after the step of its last tick.
+        ``on_tick`` is called as each tick fires (to film the pick).
         """
         c = self.config.controller
         d = self.data
@@ -420,6 +426,8 @@ class Simulator:
                 n += 1
             self._step(n)
             last_tick = d.time
+            if on_tick is not None:
+                on_tick()
             if closing:
                 gripper -= c.delta_gripper
                 d.ctrl[6:8] = max(gripper, 0.0)
@@ -439,37 +447,47 @@ class Simulator:
                     self._step(1)
                     return final
 
-    def pick(self, xy: np.ndarray, theta: float, pixel: np.ndarray | None = None) -> PickOutcome:
+    def pick(
+        self,
+        xy: np.ndarray,
+        theta: float,
+        pixel: np.ndarray | None = None,
+        on_tick: Callable[[], None] | None = None,
+    ) -> PickOutcome:
         """Attempt to pick at world ``xy`` with joint 6 at ``theta``.
 
         Args:
             xy: Target (x, y) on the picking plane (m, world).
             theta: Joint-6 angle (rad), clamped to its control range [0, pi].
             pixel: The image point the target came from (for the reachable-window check).
+            on_tick: Called at each tick of the pick's controller (to film it).
         """
         cfg = self.config
         theta = float(np.clip(theta, 0.0, np.pi))
         target = np.array([xy[0], xy[1], BASE_Z + PICK_Z])
         sites, quats = self.site_positions(), self.object_quats()
-        plan, ik_error, yaw, ik_ok = self.plan(np.asarray(xy, dtype=float), theta)
         outcome = PickOutcome(
             feasible=True,
             success=False,
             picked=None,
             target=target,
             theta=theta,
-            gripper_yaw=yaw,
-            ik_error=ik_error,
             initial_sites=sites,
             initial_quats=quats,
         )
-        if cfg.fix("unfeasible_targets"):
-            in_window = pixel is None or self.reachable(pixel)
-            if not (in_window and ik_ok):
-                outcome.feasible = False
-                return outcome
+        if cfg.fix("unfeasible_targets") and pixel is not None and not self.reachable(pixel):
+            # unfeasible whatever the IK finds: only the pick pose is solved (as the plan solves it), for the
+            # gripper yaw and IK error the outcome reports; the place pose and the waypoints are skipped
+            _, pick_pose = self._pick_poses(target, self.last_q.copy(), theta)
+            outcome.gripper_yaw, outcome.ik_error = self._gripper_yaw(pick_pose, theta), pick_pose.position_error
+            outcome.feasible = False
+            return outcome
+        plan, outcome.ik_error, outcome.gripper_yaw, ik_ok = self.plan(np.asarray(xy, dtype=float), theta)
+        if cfg.fix("unfeasible_targets") and not ik_ok:
+            outcome.feasible = False
+            return outcome
         before = self.physics_steps
-        final = self._run_controller(plan, theta)
+        final = self._run_controller(plan, theta, on_tick)
         goal = np.asarray(cfg.success_point)
         for i in range(self.n):
             if not self.picked[i] and np.linalg.norm(final[i] - goal) < cfg.success_radius:

@@ -448,6 +448,42 @@ def _report_errors(report: Path) -> str:
     return " | ".join(ln for ln in keep if ln)
 
 
+#: Control characters a text file does not hold (tab, line feed and carriage return are text).
+CONTROL = re.compile(r"[\x00-\x08\x0b-\x0c\x0e-\x1f\x7f]")
+
+
+def check_text(path: Path) -> None:
+    """Refuse a network file that is not UTF-8 text, naming the line.
+
+    EPANET reads a number up to the first byte it cannot parse and keeps the value so far when that byte
+    is a NUL or above 0x7f (``3657.6``, bytes ``ff 00``, ``001`` reads as 3657.6): such a file opens and
+    silently simulates another network.
+
+    Raises:
+        DataFileError: A byte sequence that is not UTF-8, or a control character (other than tab and line
+            ends), with its line and column.
+    """
+    data = path.read_bytes()
+    try:
+        text = data.decode("utf-8")  # a byte-order mark decodes to U+FEFF, which EPANET skips
+    except UnicodeDecodeError as exc:
+        line, start = data.count(b"\n", 0, exc.start) + 1, data.rfind(b"\n", 0, exc.start) + 1
+        where = f"line {line}, byte {exc.start - start + 1}"
+        problem = f"is not UTF-8 text ({where}: byte 0x{data[exc.start]:02x}, {exc.reason})"
+    else:
+        bad = CONTROL.search(text)
+        if bad is None:
+            return
+        line, start = text.count("\n", 0, bad.start()) + 1, text.rfind("\n", 0, bad.start()) + 1
+        where = f"line {line}, column {bad.start() - start + 1}"
+        problem = f"is not text ({where}: control character U+{ord(bad.group()):04X})"
+    msg = (
+        f"network file `{path}` {problem}; EPANET would read the field holding it as another value: remove the "
+        "binary bytes, or save the network again from EPANET as UTF-8 text"
+    )
+    raise DataFileError(msg)
+
+
 class Engine:
     """One EPANET project: a network opened once, hydraulics initialised per episode.
 
@@ -456,7 +492,8 @@ class Engine:
         kind: ``auto``, ``owa-epanet`` or ``epyt``.
 
     Raises:
-        DataFileError: The file is missing or EPANET rejects it (EPANET's messages, with line details).
+        DataFileError: The file is missing, is not text (:func:`check_text`) or EPANET rejects it (EPANET's
+            messages, with line details).
     """
 
     def __init__(self, inp: str | Path, kind: str = "auto") -> None:
@@ -470,6 +507,7 @@ class Engine:
         if not self.path.is_file():
             problem = "is a folder, not a file" if self.path.is_dir() else "does not exist"
             raise DataFileError(f"network file `{self.path}` {problem}; pass an EPANET `.inp` file as `network`")
+        check_text(self.path)
         self._tmp: str | None = tempfile.mkdtemp(prefix="gym4real-wds-")
         report = Path(self._tmp) / "epanet.rpt"
         self.ph = self.tk.createproject()
