@@ -98,6 +98,10 @@ def env_interface(env_id: str) -> dict[str, Any]:
             out["max_episode_steps"] = env.spec.max_episode_steps
         if env.has_wrapper_attr("reward_space"):
             out["reward_space"] = str(env.get_wrapper_attr("reward_space"))
+        # a vector reward's entries in order (its `components`), else the terms that sum to the scalar reward
+        terms = getattr(env.unwrapped, "components", None) or getattr(env.unwrapped, "reward_component_names", ())
+        if terms:
+            out["reward_components"] = list(terms)
         inner = getattr(env.unwrapped, "env", env).unwrapped  # a vector-reward variant's episodes are its env's
         out["episode_end"] = docstring_section(type(inner).__doc__ or "", "Episode End")
     finally:
@@ -140,7 +144,12 @@ def summary_text(record: dict[str, Any], width: int = 100) -> str:
         rows.append(("spaces", f"unavailable: the env could not be made ({iface['error']})"))
     else:
         rows += [("observation", iface["observation_space"]), ("action", iface["action_space"])]
-        rows.append(("reward", iface.get("reward_space", "a float")))
+        terms = ", ".join(iface.get("reward_components", ()))
+        if "reward_space" in iface:
+            reward = f"{iface['reward_space']}, one entry each: {terms}" if terms else iface["reward_space"]
+        else:
+            reward = f"a float, the sum of: {terms}" if terms else "a float"
+        rows.append(("reward", reward))
         steps = f" (time limit {iface['max_episode_steps']} steps)" if "max_episode_steps" in iface else ""
         rows.append(("episode end", (iface["episode_end"] or "see the env's docstring") + steps))
     rows.append(("presets", f"{', '.join(record['presets'])} (default: {record['presets'][0]})"))
