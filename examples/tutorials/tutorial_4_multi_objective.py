@@ -19,7 +19,7 @@ print(components)
 print(env.unwrapped.reward_space)
 obs, info = env.reset(seed=0)
 obs, vector, terminated, truncated, info = env.step(env.action_space.sample())
-print({name: round(float(value), 2) for name, value in zip(components, vector)})
+print({name: round(float(value), 2) for name, value in zip(components, vector, strict=True)})
 print("sum of the entries:", vector.sum(), "scalar reward of dam-v0:", info["scalar_reward"])
 
 # %%
@@ -45,5 +45,5 @@ done = False
 while not done:
     obs, vector, terminated, truncated, info = env.step(policy(obs))
     done = terminated or truncated
-for name, value in zip(components, info["episode"]["r"]):
+for name, value in zip(components, info["episode"]["r"], strict=True):
     print(f"{name:>14}: {value:12.1f}")
