@@ -33,6 +33,7 @@ DOCS = [
     "mkdocstrings[python]>=0.29",
     "mkdocs-gallery>=0.10",
     "mkdocs-literate-nav>=0.6",
+    "ruff",  # mkdocstrings formats the signatures with it
 ]
 
 nox.options.default_venv_backend = "venv"

@@ -15,7 +15,7 @@ import gym4real
 
 env = gym.wrappers.RescaleAction(gym.make("gym4real/dam-v0", preset="train"), -1.0, 1.0)
 model = PPO("MlpPolicy", env, n_steps=1024, batch_size=64, seed=0, verbose=0)
-model.learn(total_timesteps=16384)
+model.learn(total_timesteps=10240)
 
 
 # %%
@@ -36,6 +36,6 @@ print(result.table())
 
 # %%
 # The `objective_mean` column is the paper's score (deficit + overflow + starving, higher is better);
-# the return adds the penalties on wasted water and on releases outside the feasible range. 16k steps
-# are 45 years of daily decisions, a twelfth of the paper's budget: the
+# the return adds the penalties on wasted water and on releases outside the feasible range. 10k steps
+# are 28 years of daily decisions, a twentieth of the paper's budget: the
 # [reproduced results](../results/index.md) test PPO at that budget over five seeds.
