@@ -26,6 +26,15 @@ CORE = ROOT / "packages" / "gym4real-core"
 # the public index for Linux this pin is the multi-GB CUDA build: run nox with
 # PIP_EXTRA_INDEX_URL=https://download.pytorch.org/whl/cpu to get 2.13.0+cpu instead (the README says so).
 TORCH = "torch==2.13.0"
+# The docs site's build: the theme, the API reference from docstrings, the executed tutorials, the nav of
+# the generated pages (mkdocs.yml); and the browser check's driver (docs/check_site.py).
+DOCS = [
+    "mkdocs-material>=9.5",
+    "mkdocstrings[python]>=0.29",
+    "mkdocs-gallery>=0.10",
+    "mkdocs-literate-nav>=0.6",
+    "ruff",  # mkdocstrings formats the signatures with it
+]
 
 nox.options.default_venv_backend = "venv"
 nox.options.sessions = ["lint", "tests"]
@@ -74,7 +83,7 @@ def tests(session: nox.Session, gymnasium: str) -> None:
         *sorted({dep for d in PACKAGES for dep in _test_deps(d)}),
         "pytest-xdist>=3",
         "hatchling>=1.26",
-        "mkdocs-material>=9.5",
+        *DOCS,
     )
     if gymnasium != "latest":
         session.install(f"gymnasium=={gymnasium}", f"-e{CORE}[ray]")
@@ -146,10 +155,13 @@ def docs(session: nox.Session) -> None:
 
     One generated page per env with an episode GIF of its best rule-based baseline (recorded here into the
     ignored docs/envs/) and its `gym4real bench` figures (short benchmarks), plus the figures of `gym4real
-    reproduce` found in results/; `mkdocs build --strict`; then every page opened in headless Chromium
-    (the system's: `apt-get install -y chromium`, or GYM4REAL_CHROMIUM=<binary>), a screenshot of each
-    saved in results/docs/screenshots/, failing on a console error, a broken image or a page that does
-    not render.
+    reproduce` found in results/, and the home page's gallery, verdicts and citation (docs/snippets/);
+    `mkdocs build --strict`, which executes the tutorials of examples/tutorials/ (a failing one fails it)
+    and builds the API reference; then every page opened in headless Chromium (the system's: `apt-get
+    install -y chromium`, or GYM4REAL_CHROMIUM=<binary>), a screenshot of each saved in
+    results/docs/screenshots/ (home.png and env.png: the whole home page and first env page), failing on a
+    console error, a broken image, an internal link that does not resolve or a page that does not render.
+    The tutorials train with torch: see TORCH above for its CPU build.
     """
     spec = importlib.util.spec_from_file_location("check_site", ROOT / "docs" / "check_site.py")
     assert spec is not None and spec.loader is not None
@@ -158,9 +170,8 @@ def docs(session: nox.Session) -> None:
     chromium = site_check.find_chromium(None)
     if chromium is None:
         session.error(site_check.INSTALL)
-    session.install(
-        *(_editable(d).removesuffix("[rl,mo,offline]") for d in PACKAGES), "mkdocs-material>=9.5", "playwright>=1.40"
-    )
+    session.install(TORCH)
+    session.install(*(_editable(d) for d in PACKAGES), *DOCS, "playwright>=1.40")
     figures = ROOT / "results" / "docs"
     env = ENV | _data_env(session)
     ids = session.run(
@@ -170,7 +181,8 @@ def docs(session: nox.Session) -> None:
         out = figures / env_id.replace("/", "_")
         session.run("gym4real", "bench", env_id, "--episodes", "3", "--out", str(out), "--quiet", env=env)
     session.run("python", "docs/gen_pages.py", "--figures", str(figures), "--gifs", env=env)
-    session.run("mkdocs", "build", "--strict", env={**env, "NO_MKDOCS_2_WARNING": "1"})
+    quiet = {"NO_MKDOCS_2_WARNING": "1", "DISABLE_MKDOCS_2_WARNING": "true"}  # the theme's and a plugin's notice
+    session.run("mkdocs", "build", "--strict", env=env | quiet)
     shots = figures / "screenshots"
     session.run("python", "docs/check_site.py", "site", "--screenshots", str(shots), "--chromium", chromium, env=env)
 

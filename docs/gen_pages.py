@@ -10,6 +10,11 @@ The GIF shows the env's best rule-based baseline: the protocol's baseline (other
 the best mean objective in ``--figures`` results, else its first. It is recorded here (``gym4real
 record``, no MP4) into the ignored ``docs/envs/gifs/``.
 
+The Environments page lists every id, the multi-objective ones with their reward components. The home
+page includes three snippets written into the ignored ``docs/snippets/`` (not pages of the site):
+the gallery of the envs (their GIFs linking to their pages), the verdict table of the results page and
+the citations (the suite's version read from gym4real-core's ``pyproject.toml``).
+
     python docs/gen_pages.py [--figures results/docs] [--gifs]
 """
 
@@ -18,7 +23,9 @@ from __future__ import annotations
 import argparse
 import inspect
 import json
+import re
 import shutil
+import tomllib
 from pathlib import Path
 
 import gymnasium as gym
@@ -29,6 +36,7 @@ from gym4real.core.registry import registry
 from gym4real.core.specs import FLAGS
 
 DOCS = Path(__file__).resolve().parent
+CORE = DOCS.parent / "packages" / "gym4real-core"
 GIF_FRAMES = 60  # frames per GIF (evenly spaced steps, and the last)
 
 
@@ -84,7 +92,8 @@ def _summary(env: gym.Env, env_id: str, flags: str) -> list[str]:
     return [head, "|---|---|", *body, ""]
 
 
-def page(env_id: str, figures: Path | None, gif_steps: int | None = None) -> str:
+def page(env_id: str, figures: Path | None, gif: tuple[Path, str, int] | None = None) -> str:
+    """The env's page; ``gif`` is its recorded episode (the file, the baseline and the steps recorded)."""
     info = gym4real.env_info(env_id)
     reg = registry()
     env = gym.make(env_id)
@@ -92,12 +101,11 @@ def page(env_id: str, figures: Path | None, gif_steps: int | None = None) -> str
     schema = json.dumps(type(env.unwrapped.config).model_json_schema(), indent=1)
     flags = " · ".join(f"**{f.replace('_', ' ')}**" for f in FLAGS if info.flags[f]) or "none"
     lines = [f"# `{env_id}`", ""]
-    if gif_steps:
-        policy = best_baseline(env_id, figures)
-        gif = episode_gif(env_id, policy, gif_steps)
+    if gif:
+        path, policy, gif_steps = gif
         lines += [
             '<figure class="episode" markdown="span">',
-            f"  ![{env_id}: an episode of the {policy} baseline](gifs/{gif.name})",
+            f"  ![{env_id}: an episode of the {policy} baseline](gifs/{path.name})",
             f"  <figcaption>The <code>{policy}</code> baseline, seed 0, first {gif_steps} steps at most</figcaption>",
             "</figure>",
             "",
@@ -155,12 +163,23 @@ def _figures(title: str, folder: Path, intro: str = "") -> list[str]:
     return lines
 
 
-def _reproduction(env_id: str) -> list[str]:
-    """The env's rows of the results page's verdict table (``docs/results/index.md``), when it has some."""
+def verdict_table(env_id: str | None = None) -> list[str]:
+    """The verdict table of the results page (``docs/results/index.md``): its head and rows (one env's with
+    ``env_id``); empty when the page has no row for it."""
     results = DOCS / "results" / "index.md"
     text = results.read_text(encoding="utf-8").splitlines() if results.is_file() else []
-    rows = [line for line in text if line.startswith(f"| `{env_id.split('/')[-1]}` |")]
-    if not rows:
+    head = [i for i, line in enumerate(text) if line.startswith("| env | budget |")]
+    if not head:
+        return []
+    prefix = f"| `{env_id.split('/')[-1]}` |" if env_id else "| `"
+    rows = [line for line in text[head[0] + 2 :] if line.startswith(prefix)]
+    return [*text[head[0] : head[0] + 2], *rows] if rows else []
+
+
+def _reproduction(env_id: str) -> list[str]:
+    """The env's rows of the results page's verdict table, when it has some."""
+    table = verdict_table(env_id)
+    if not table:
         return []
     return [
         "## Reproduction",
@@ -168,10 +187,104 @@ def _reproduction(env_id: str) -> list[str]:
         f"`gym4real reproduce {env_id}`: the paper's claims checked over training seeds; tables, learning curves "
         "and figures in the [reproduced results](../results/index.md).",
         "",
-        *text[text.index(next(line for line in text if line.startswith("| env | budget |"))) :][:2],
-        *rows,
+        *table,
         "",
     ]
+
+
+def environments_index(pages: dict[str, str]) -> str:
+    """The Environments page: every id with its description, then the multi-objective ids' reward vectors.
+
+    Args:
+        pages: Each single-objective id's page file name (in ``docs/envs/``).
+    """
+    reg = registry()
+    lines = ["# Environments", "", "| id | description |", "|---|---|"]
+    lines += [f"| [`{i}`]({name}) | {reg.envs[i].description} |" for i, name in pages.items()]
+    mo = {i: reg.multi_objective[i] for i in gym4real.list_envs() if i in reg.multi_objective}
+    if mo:
+        lines += [
+            "",
+            "## Multi-objective ids",
+            "",
+            "A vector reward, one entry per reward component of the env it wraps, in this order (the entries sum "
+            "to that env's scalar reward); MO-Gymnasium's wrappers apply (extra `mo`).",
+            "",
+            "| id | wraps | reward vector |",
+            "|---|---|---|",
+        ]
+        for mo_id, base in mo.items():
+            env = gym.make(mo_id)
+            names = ", ".join(f"`{c}`" for c in env.unwrapped.components)
+            env.close()
+            link = f"[`{base}`]({pages[base]})" if base in pages else f"`{base}`"
+            lines.append(f"| `{mo_id}` | {link} | ({names}) |")
+    return "\n".join(lines) + "\n"
+
+
+def gallery(pages: dict[str, str], gifs: dict[str, Path]) -> str:
+    """The home page's gallery: a card per env, its GIF (when recorded) and its id linking to its page."""
+    reg = registry()
+    lines = ['<div class="grid cards" markdown>', ""]
+    for env_id, name in pages.items():
+        card = f"-   [**`{env_id}`**](envs/{name})<br>{reg.envs[env_id].description}"
+        if env_id in gifs:
+            card = f"-   [![{env_id}](envs/gifs/{gifs[env_id].name})](envs/{name})\n\n    " + card.removeprefix("-   ")
+        lines += [card, ""]
+    return "\n".join([*lines, "</div>", ""])
+
+
+def suite_version() -> tuple[str, str]:
+    """gym4real-core's version (its ``pyproject.toml``) and the year of that release (its CHANGELOG)."""
+    version = tomllib.loads((CORE / "pyproject.toml").read_text(encoding="utf-8"))["project"]["version"]
+    dated = re.search(rf"^## \[{re.escape(version)}\] - (\d{{4}})-", (CORE / "CHANGELOG.md").read_text(), re.M)
+    if dated is None:
+        raise SystemExit(f"{CORE / 'CHANGELOG.md'} has no dated section `## [{version}] - YYYY-MM-DD`: add it")
+    return version, dated.group(1)
+
+
+PAPER_BIBTEX = """@misc{salaorni2025gym4real,
+  title  = {{Gym4ReaL}: A Suite for Benchmarking Real-World
+            Reinforcement Learning},
+  author = {Salaorni, Davide and De Paola, Vincenzo and Delpero, Samuele
+            and Dispoto, Giovanni and Bonetti, Paolo and Russo, Alessio
+            and Calcagno, Giuseppe and Trov{\\`o}, Francesco
+            and Papini, Matteo and Metelli, Alberto Maria
+            and Mussi, Marco and Restelli, Marcello},
+  year   = {2025},
+  note   = {Preprint}
+}"""
+
+
+def citation() -> str:
+    """The "How to cite" text: the BibTeX of the paper and of this suite at its current version."""
+    version, year = suite_version()
+    suite = "\n".join(
+        [
+            f"@software{{gym4real{year},",
+            "  title   = {{gym4real}: Realistic Reinforcement-Learning Environments",
+            "             with the {Gymnasium} API},",
+            "  author  = {{gym4real contributors}},",
+            f"  year    = {{{year}}},",
+            f"  version = {{{version}}},",
+            "  note    = {Python packages gym4real-core and gym4real-<domain>}",
+            "}",
+        ]
+    )
+    return "\n".join(
+        [
+            "Cite the paper for the environments and the suite, at the version you used, for this implementation:",
+            "",
+            "```bibtex",
+            PAPER_BIBTEX,
+            "```",
+            "",
+            "```bibtex",
+            suite,
+            "```",
+            "",
+        ]
+    )
 
 
 def main() -> None:
@@ -180,16 +293,24 @@ def main() -> None:
     parser.add_argument("--gifs", action="store_true", help="record an episode GIF of each env's best baseline")
     parser.add_argument("--gif-steps", type=int, default=360, help="steps of the recorded episode at most")
     args = parser.parse_args()
-    out = DOCS / "envs"
-    shutil.rmtree(out, ignore_errors=True)
-    out.mkdir()
-    index = ["# Environments", "", "| id | description |", "|---|---|"]
-    for env_id in gym4real.list_envs(multi_objective=False):
-        name = env_id.replace("/", "_") + ".md"
-        (out / name).write_text(page(env_id, args.figures, args.gif_steps if args.gifs else None))
-        index.append(f"| [`{env_id}`]({name}) | {registry().envs[env_id].description} |")
-    (out / "index.md").write_text("\n".join(index) + "\n")
-    print(f"wrote {len(index) - 4} environment pages to {out}")
+    out, snippets = DOCS / "envs", DOCS / "snippets"
+    for folder in (out, snippets):
+        shutil.rmtree(folder, ignore_errors=True)
+        folder.mkdir()
+    pages = {env_id: env_id.replace("/", "_") + ".md" for env_id in gym4real.list_envs(multi_objective=False)}
+    gifs: dict[str, Path] = {}
+    for env_id, name in pages.items():
+        gif = None
+        if args.gifs:
+            policy = best_baseline(env_id, args.figures)
+            gifs[env_id] = episode_gif(env_id, policy, args.gif_steps)
+            gif = (gifs[env_id], policy, args.gif_steps)
+        (out / name).write_text(page(env_id, args.figures, gif))
+    (out / "index.md").write_text(environments_index(pages))
+    (snippets / "gallery.md").write_text(gallery(pages, gifs))
+    (snippets / "verdicts.md").write_text("\n".join([*verdict_table(), ""]))
+    (snippets / "cite.md").write_text(citation())
+    print(f"wrote {len(pages)} environment pages to {out} and the home page's snippets to {snippets}")
 
 
 if __name__ == "__main__":

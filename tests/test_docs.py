@@ -1,33 +1,110 @@
-"""The docs site builds (strict) from the generated pages, and its examples run."""
+"""The docs site builds (strict) from the generated pages, its examples and tutorials run, and the browser
+check finds broken images, links and pages."""
 
 from __future__ import annotations
 
-import doctest
+import ast
 import re
 import shutil
 import subprocess
 import sys
 from collections.abc import Callable
+from importlib.metadata import version
 from pathlib import Path
 from types import ModuleType
 
+import gymnasium as gym
 import pytest
 from PIL import Image
 
+import gym4real
+
 ROOT = Path(__file__).resolve().parents[1]
+HOME = ROOT / "docs" / "index.md"
 
 
-def test_docs_examples_run() -> None:
-    result = doctest.testfile(str(ROOT / "docs" / "index.md"), module_relative=False, optionflags=doctest.ELLIPSIS)
-    assert result.attempted > 0 and result.failed == 0
+def _section(text: str, heading: str) -> str:
+    return text.split(f"## {heading}\n", 1)[1].split("\n## ", 1)[0]
 
 
-def test_site_builds_strict_with_an_episode_gif_on_every_page(tmp_path: Path) -> None:
-    pytest.importorskip("mkdocs")
+def test_home_quick_start_runs_in_about_ten_lines() -> None:
+    (code,) = re.findall(r"```python\n(.*?)```", _section(HOME.read_text(encoding="utf-8"), "Quick start"), re.S)
+    assert len([line for line in code.splitlines() if line.strip()]) <= 12
+    assert max(len(line) for line in code.splitlines()) <= 80  # no line cut off on the page
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=False)
+    assert run.returncode == 0, run.stderr
+    first, *table = run.stdout.splitlines()
+    assert sorted(ast.literal_eval(first)) == ["delivery", "waiting"]  # the printed dict of the elevator's reward terms
+    rows = {line.split()[0]: line.split() for line in table if line.split()}
+    assert rows["longest_first"][1] == rows["random"][1] == "2"  # episodes per policy
+
+
+def test_environments_page_names_the_reward_terms_of_each_multi_objective_id(
+    load_script: Callable[[Path], ModuleType],
+) -> None:
+    gen_pages = load_script(ROOT / "docs" / "gen_pages.py")
+    pages = {i: i.replace("/", "_") + ".md" for i in gym4real.list_envs(multi_objective=False)}
+    text = gen_pages.environments_index(pages)
+    mo_ids = [i for i in gym4real.list_envs() if i not in pages]
+    assert mo_ids
+    for mo_id in mo_ids:
+        (row,) = [line for line in text.splitlines() if line.startswith(f"| `{mo_id}` |")]
+        base = mo_id.replace("-mo-v", "-v")
+        env = gym.make(base)
+        env.reset(seed=0)
+        *_, info = env.step(env.action_space.sample())
+        env.close()
+        assert f"[`{base}`]({pages[base]})" in row
+        assert sorted(re.findall(r"`([a-z_]+)`", row.split("|")[3])) == sorted(info["reward_components"])
+
+
+def test_citation_names_the_installed_suite_version_and_the_readme_carries_it(
+    load_script: Callable[[Path], ModuleType],
+) -> None:
+    gen_pages = load_script(ROOT / "docs" / "gen_pages.py")
+    text = gen_pages.citation()
+    paper, suite = re.findall(r"```bibtex\n(.*?)```", text, re.S)
+    assert "title  = {{Gym4ReaL}: A Suite for Benchmarking Real-World" in paper and "year   = {2025}" in paper
+    assert f"version = {{{version('gym4real-core')}}}" in suite
+    readme = _section((ROOT / "README.md").read_text(encoding="utf-8"), "How to cite")
+    assert paper in readme and suite in readme
+
+
+def test_home_verdicts_are_the_results_pages(load_script: Callable[[Path], ModuleType]) -> None:
+    gen_pages = load_script(ROOT / "docs" / "gen_pages.py")
+    results = (ROOT / "docs" / "results" / "index.md").read_text(encoding="utf-8")
+    rows = [line for line in results.splitlines() if re.match(r"\| `[a-z0-9-]+` \| (paper|quick) \|", line)]
+    table = gen_pages.verdict_table()
+    assert rows and table[0].startswith("| env | budget |") and table[2:] == rows
+
+
+TUTORIAL = '''"""# Step the elevator
+
+A tutorial as the docs session runs them.
+"""
+
+# %%
+import gymnasium as gym
+
+import gym4real  # noqa: F401
+
+env = gym.make("gym4real/elevator-v0")
+obs, info = env.reset(seed=0)
+print("queues at the reset:", obs["floor_queues"])
+'''
+
+
+def test_site_builds_strict_with_the_env_pages_in_the_nav_and_an_executed_tutorial(tmp_path: Path) -> None:
+    for plugin in ("mkdocs", "mkdocs_gallery", "mkdocstrings_handlers.python", "mkdocs_literate_nav"):
+        pytest.importorskip(plugin, reason="the docs session installs the site's plugins")
     docs = tmp_path / "docs"
-    shutil.copytree(ROOT / "docs", docs, ignore=shutil.ignore_patterns("envs"))
+    shutil.copytree(ROOT / "docs", docs, ignore=shutil.ignore_patterns("envs", "snippets", "tutorials"))
     shutil.copy(ROOT / "mkdocs.yml", tmp_path / "mkdocs.yml")
-    import gym4real
+    (tmp_path / "packages").symlink_to(ROOT / "packages")  # the API reference's sources and the changelogs
+    tutorials = tmp_path / "examples" / "tutorials"
+    tutorials.mkdir(parents=True)
+    shutil.copy(ROOT / "examples" / "tutorials" / "README.md", tutorials / "README.md")
+    (tutorials / "tutorial_1_step.py").write_text(TUTORIAL)
 
     result = gym4real.benchmark(
         "gym4real/elevator-v0",
@@ -39,7 +116,8 @@ def test_site_builds_strict_with_an_episode_gif_on_every_page(tmp_path: Path) ->
     gen = [sys.executable, str(docs / "gen_pages.py"), "--figures", str(tmp_path / "results"), "--gifs"]
     subprocess.run([*gen, "--gif-steps", "3"], check=True, cwd=tmp_path)
     pages = sorted((docs / "envs").glob("gym4real_*.md"))
-    assert len(pages) == len(gym4real.list_envs(multi_objective=False))  # no page of a vector-reward variant
+    ids = gym4real.list_envs(multi_objective=False)
+    assert len(pages) == len(ids)  # no page of a vector-reward variant
     for page in pages:
         text = page.read_text()
         assert "## Configuration schema" in text
@@ -50,7 +128,19 @@ def test_site_builds_strict_with_an_episode_gif_on_every_page(tmp_path: Path) ->
     assert f"gifs/elevator-v0-{best}-seed0.gif" in elevator  # the better of the two baselines
     assert "![returns_boxplot](figures/gym4real_elevator-v0/returns_boxplot.png)" in elevator
     subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "-q"], check=True, cwd=tmp_path)
-    assert (tmp_path / "site" / "index.html").exists()
+
+    site = tmp_path / "site"
+    home = (site / "index.html").read_text()
+    nav = set(re.findall(r'<a href="([^"]+)" class="md-nav__link', home))
+    for env_id in ids:  # each env page: in the navigation, and in the gallery as its GIF linking to it
+        page = f"envs/{env_id.replace('/', '_')}/"
+        assert page in nav
+        assert re.search(rf'<a href="{page}"><img alt="{env_id}" src="envs/gifs/[^"]+\.gif"', home), env_id
+    assert {"tutorials/tutorial_1_step/", "results/", "api/", "api/wrappers/", "plugins/", "releases/core/"} <= nav
+    tutorial = re.sub(r"<[^>]+>", "", (site / "tutorials" / "tutorial_1_step" / "index.html").read_text())
+    assert "queues at the reset: [0 0 0 0]" in tutorial  # executed by the build: its output is on the page
+    assert "gym4real.wrappers.challenge" in (site / "api" / "wrappers" / "index.html").read_text()
+    assert "Changelog of gym4real-wds" in (site / "releases" / "wds" / "index.html").read_text()
 
 
 def test_browser_check_reports_a_console_error_a_broken_image_and_an_empty_page(
@@ -65,13 +155,19 @@ def test_browser_check_reports_a_console_error_a_broken_image_and_an_empty_page(
     pixel = tmp_path / "site" / "dot.gif"
     pixel.parent.mkdir()
     Image.new("RGB", (2, 2), "red").save(pixel)
+    links = "<a href='a/#fine'>a</a><a href='dot.gif'>dot</a><a href='https://example.org/x'>out</a>"
+    broken = "<a href='../missing/'>gone</a><a href='../#nowhere'>no anchor</a>"
     pages = {
-        "index.html": f"<article><h1>Fine</h1>{text}<img src='dot.gif'></article>",
-        "a/index.html": f"<article><h1>Bad</h1>{text}<img src='../missing.gif'><script>console.error('boom')</script>",
+        "index.html": f"<article><h1>Fine</h1>{text}<img src='dot.gif'>{links}</article>",
+        "a/index.html": (
+            f"<article><h1 id='fine'>Bad</h1>{text}<img src='../missing.gif'>{broken}"
+            "<script>console.error('boom')</script>"
+        ),
         "b/index.html": "<article><p>nothing</p></article>",
+        "envs/e/index.html": f"<article><h1>An env</h1>{text}<a href='../../b/'>b</a></article>",
     }
     for rel, body in pages.items():
-        (tmp_path / "site" / rel).parent.mkdir(exist_ok=True)
+        (tmp_path / "site" / rel).parent.mkdir(parents=True, exist_ok=True)
         (tmp_path / "site" / rel).write_text(f"<!doctype html><html><body>{body}</body></html>")
     problems = check_site.check(tmp_path / "site", tmp_path / "shots", chromium)
     assert not [p for p in problems if p.startswith("index.html")]
@@ -79,7 +175,11 @@ def test_browser_check_reports_a_console_error_a_broken_image_and_an_empty_page(
     assert any("console error: boom" in p for p in bad)
     assert any("broken image" in p and "missing.gif" in p for p in bad)
     assert any("HTTP 404" in p for p in bad)
+    assert any("broken link" in p and "/missing/ (no such file in the site)" in p for p in bad)
+    assert any("broken link" in p and "no element with id `nowhere` on index.html" in p for p in bad)
     assert [p for p in problems if p.startswith("b/index.html")] == [
         "b/index.html: page did not render (h1: False, 7 characters of text)"
     ]
-    assert sorted(p.name for p in (tmp_path / "shots").glob("*.png")) == ["a_index.png", "b_index.png", "index.png"]
+    assert not [p for p in problems if p.startswith("envs/")]
+    shots = sorted(p.name for p in (tmp_path / "shots").glob("*.png"))
+    assert shots == ["a_index.png", "b_index.png", "env.png", "envs_e_index.png", "home.png", "index.png"]

@@ -180,16 +180,3 @@ def test_the_page_prints_no_machine_path(text: str, shown: str) -> None:
     from gym4real.core.rl.results_page import no_paths
 
     assert no_paths(text).startswith(shown)
-
-
-def test_the_readme_and_the_docs_cite_the_paper_and_this_suites_version() -> None:
-    import tomllib
-
-    version = tomllib.loads((ROOT / "packages" / "gym4real-core" / "pyproject.toml").read_text())["project"]["version"]
-    paper = ROOT.parent / "shared" / "paper" / "gym4real-paper.tex"
-    for doc in (ROOT / "README.md", ROOT / "docs" / "index.md"):
-        text = doc.read_text(encoding="utf-8")
-        assert "## How to cite" in text and f"version = {{{version}}}" in text, doc
-        assert "Real-World Reinforcement Learning}" in text and "Salaorni, Davide" in text, doc
-    if paper.exists():  # the title cited is the paper's
-        assert "Gym4ReaL: A Suite for Benchmarking\\\\Real-World Reinforcement Learning" in paper.read_text()
