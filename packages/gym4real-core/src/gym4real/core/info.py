@@ -99,14 +99,10 @@ def env_interface(env_id: str) -> dict[str, Any]:
             out["max_episode_steps"] = env.spec.max_episode_steps
         if env.has_wrapper_attr("reward_space"):
             out["reward_space"] = str(env.get_wrapper_attr("reward_space"))
-<<<<<<< ours
-            out["reward_components"] = list(getattr(env.unwrapped, "components", ()))
-=======
         # a vector reward's entries in order (its `components`), else the terms that sum to the scalar reward
         terms = getattr(env.unwrapped, "components", None) or getattr(env.unwrapped, "reward_component_names", ())
         if terms:
             out["reward_components"] = list(terms)
->>>>>>> theirs
         inner = getattr(env.unwrapped, "env", env).unwrapped  # a vector-reward variant's episodes are its env's
         out["episode_end"] = docstring_section(type(inner).__doc__ or "", "Episode End")
     finally:
@@ -167,17 +163,11 @@ def summary_text(record: dict[str, Any], width: int = 100) -> str:
         rows.append(("spaces", f"unavailable: the env could not be made ({iface['error']})"))
     else:
         rows += [("observation", iface["observation_space"]), ("action", iface["action_space"])]
-<<<<<<< ours
-        reward = iface.get("reward_space", "a float")
-        if iface.get("reward_components"):
-            reward += f", one entry per reward component: {', '.join(iface['reward_components'])}"
-=======
         terms = ", ".join(iface.get("reward_components", ()))
         if "reward_space" in iface:
             reward = f"{iface['reward_space']}, one entry each: {terms}" if terms else iface["reward_space"]
         else:
             reward = f"a float, the sum of: {terms}" if terms else "a float"
->>>>>>> theirs
         rows.append(("reward", reward))
         steps = f" (time limit {iface['max_episode_steps']} steps)" if "max_episode_steps" in iface else ""
         rows.append(("episode end", (iface["episode_end"] or "see the env's docstring") + steps))
