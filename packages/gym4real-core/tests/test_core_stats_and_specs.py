@@ -55,20 +55,20 @@ def test_difference_ci_pairs_the_test_episodes() -> None:
     rng = np.random.default_rng(0)
     episodes = rng.normal(0, 10, size=20)  # a spread over episodes that both policies share
     better = episodes + 1.0 + rng.normal(0, 0.05, size=(3, 20))  # three seeds, one unit above everywhere
-    diff, low, high = stats.difference_ci(better, episodes[None, :])
+    diff, low, high = stats.difference_ci(better, episodes[None, :], True, False)
     assert 0 < low <= diff <= high and diff == pytest.approx(1.0, abs=0.1)
     assert high - low < 0.5  # unpaired, the shared spread of 10 would swamp the shift
-    assert stats.difference_ci(better, episodes[None, :]) == (diff, low, high)  # seeded
+    assert stats.difference_ci(better, episodes[None, :], True, False) == (diff, low, high)  # seeded
     with pytest.raises(ValueError, match="different episodes"):
-        stats.difference_ci(better, episodes[None, :10])
+        stats.difference_ci(better, episodes[None, :10], True, False)
 
 
 def test_iqm_ci_covers_the_iqm_and_narrows_with_more_episodes() -> None:
     rng = np.random.default_rng(1)
     few, many = rng.normal(5, 2, size=(1, 10)), rng.normal(5, 2, size=(1, 400))
-    value, low, high = stats.iqm_ci(few)
+    value, low, high = stats.iqm_ci(few, trained=False)
     assert low <= value <= high
-    _, low2, high2 = stats.iqm_ci(many)
+    _, low2, high2 = stats.iqm_ci(many, trained=False)
     assert low2 < 5 < high2 and high2 - low2 < high - low
 
 
@@ -95,13 +95,13 @@ def test_a_claim_holds_only_when_every_comparison_holds() -> None:
     rng = np.random.default_rng(2)
     base = rng.normal(0, 1, size=(1, 30))
     scores = {"agent": base + 5 + rng.normal(0, 0.1, (2, 30)), "weak": base, "strong": base + 10, "same": base + 5}
-    assert check_claim(Claim("beats weak", "agent", "above", ("weak",)), scores)["verdict"] == "holds"
-    assert check_claim(Claim("beats both", "agent", "above", ("weak", "strong")), scores)["verdict"] == "does not hold"
-    tie = check_claim(Claim("beats same", "agent", "above", ("same",)), scores)
+    assert check_claim(Claim("beats weak", "agent", "above", ("weak",)), scores, {"agent"})["verdict"] == "holds"
+    assert check_claim(Claim("beats both", "agent", "above", ("weak", "strong")), scores, {"agent"})["verdict"] == "does not hold"
+    tie = check_claim(Claim("beats same", "agent", "above", ("same",)), scores, {"agent"})
     assert tie["verdict"] == "inconclusive" and tie["comparisons"][0]["ci95"][0] < 0 < tie["comparisons"][0]["ci95"][1]
-    assert check_claim(Claim("x", "agent", "above", ("missing",)), scores)["verdict"] == "not checked"
+    assert check_claim(Claim("x", "agent", "above", ("missing",)), scores, {"agent"})["verdict"] == "not checked"
     steady = {"agent": base * 0.1, "other": base}
-    assert check_claim(Claim("less spread", "agent", "less_variable", ("other",)), steady)["verdict"] == "holds"
+    assert check_claim(Claim("less spread", "agent", "less_variable", ("other",)), steady, {"agent"})["verdict"] == "holds"
 
 
 def test_claims_are_checked_records() -> None:

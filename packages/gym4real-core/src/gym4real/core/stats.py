@@ -1,11 +1,11 @@
 """Summary statistics of episode returns, from scipy.
 
-Scores across training seeds are matrices ``(runs, episodes)``: one row per training seed, one column per
-test episode. Their aggregate is the interquartile mean (IQM) over all runs and episodes, as in rliable
-(Agarwal et al., 2021); its 95 % confidence interval is scipy's percentile bootstrap over the test
-episodes (rliable's ``task_bootstrap``), each resampled episode keeping the scores of every seed, and
-comparisons resample the two policies' episodes in pairs. rliable itself is not used: its 1.2 release
-needs arch < 8, which fails to import under pandas 3.
+Scores across training seeds are matrices ``(seeds, episodes)``: one row per training seed (one row for a
+baseline), one column per test episode. Their aggregate is the interquartile mean (IQM) over all seeds and
+episodes, as in rliable (Agarwal et al., 2021). Its 95 % confidence interval is a two-level percentile
+bootstrap: each replicate resamples a trained agent's seeds (the unit of replication), then the test
+episodes, the same episodes for every policy of a comparison (pairing). rliable itself is not used: its
+1.2 release needs arch < 8, which fails to import under pandas 3.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 from scipy import stats as sps
 
-#: Bootstrap resamples of the confidence intervals over test episodes.
+#: Bootstrap replicates of the confidence intervals.
 REPS = 5000
 
 
@@ -63,32 +63,40 @@ def t_band(rows: np.ndarray, level: float = 0.95) -> tuple[np.ndarray, np.ndarra
     return mean, mean - half, mean + half
 
 
-def _over_episodes(
-    matrices: Sequence[np.ndarray], func: Callable[..., np.ndarray], seed: int
-) -> tuple[float, float, float]:
-    """``func`` of score matrices and its percentile-bootstrap 95 % CI, resampling the test episodes (columns).
+def _replicates(scores: np.ndarray, trained: bool, episodes: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Bootstrap replicates ``(reps, seeds, episodes)`` of a ``(seeds, episodes)`` score matrix.
 
-    scipy resamples the episode indices; every matrix takes the same ones (pairing by episode), each keeping
-    all its runs. ``func`` takes the matrices with their columns reindexed, shape ``(batch, runs, episodes)``.
+    A trained agent's seeds (its training runs) are resampled with replacement; a baseline's rows are kept
+    (a rule-based policy has no training seed). The test episodes are resampled by ``episodes``
+    ``(reps, episodes)``, shared by every matrix of a comparison (pairing by episode).
     """
-    tasks = matrices[0].shape[1]
+    n = scores.shape[0]
+    reps = len(episodes)
+    rows = rng.integers(0, n, size=(reps, n)) if trained else np.broadcast_to(np.arange(n), (reps, n))
+    replicates: np.ndarray = scores[rows[:, :, None], episodes[:, None, :]]
+    return replicates
 
-    def statistic(idx: np.ndarray, axis: int = -1) -> np.ndarray:
-        idx = np.atleast_2d(idx)
-        return func(*(np.moveaxis(m[:, idx], 1, 0) for m in matrices))
 
-    point = float(statistic(np.arange(tasks))[0])
-    if tasks < 2:
-        return point, point, point
-    res = sps.bootstrap(
-        (np.arange(tasks),),
-        statistic,
-        vectorized=True,
-        n_resamples=REPS,
-        method="percentile",
-        rng=np.random.default_rng(seed),
-    )
-    return point, float(res.confidence_interval.low), float(res.confidence_interval.high)
+def _two_level(
+    matrices: Sequence[np.ndarray], trained: Sequence[bool], func: Callable[..., np.ndarray], seed: int
+) -> tuple[float, float, float]:
+    """``func`` of score matrices and its two-level percentile-bootstrap 95 % CI: ``(value, low, high)``.
+
+    Each replicate resamples the seeds of every trained matrix, then the test episodes (the same ones for
+    every matrix). ``func`` takes matrices shaped ``(batch, seeds, episodes)`` and returns one value per batch.
+    """
+    matrices = [np.atleast_2d(np.asarray(m, dtype=float)) for m in matrices]
+    episodes = {m.shape[1] for m in matrices}
+    if len(episodes) > 1:
+        shapes = " and ".join(str(m.shape[1]) for m in matrices)
+        raise ValueError(f"the score matrices have different episodes ({shapes} columns)")
+    point = float(func(*(m[None] for m in matrices))[0])
+    rng = np.random.default_rng(seed)
+    n_episodes = episodes.pop()
+    index = rng.integers(0, n_episodes, size=(REPS, n_episodes))
+    values = func(*(_replicates(m, t, index, rng) for m, t in zip(matrices, trained, strict=True)))
+    low, high = np.percentile(values, [2.5, 97.5])
+    return point, float(low), float(high)
 
 
 def _batched(statistic: str) -> Callable[[np.ndarray], np.ndarray]:
@@ -100,25 +108,62 @@ def _batched(statistic: str) -> Callable[[np.ndarray], np.ndarray]:
     raise ValueError(f"statistic `{statistic}` is not `iqm` or `std`")
 
 
-def iqm_ci(scores: np.ndarray, seed: int = 0) -> tuple[float, float, float]:
-    """IQM of a ``(runs, episodes)`` score matrix and its 95 % CI over the test episodes: ``(iqm, low, high)``."""
-    return _over_episodes([np.asarray(scores, dtype=float)], _batched("iqm"), seed)
-
-
-def difference_ci(a: np.ndarray, b: np.ndarray, statistic: str = "iqm", seed: int = 0) -> tuple[float, float, float]:
-    """``statistic(a) - statistic(b)`` and its 95 % CI, the test episodes resampled in pairs.
+def iqm_ci(scores: np.ndarray, trained: bool, seed: int = 0) -> tuple[float, float, float]:
+    """IQM of a ``(seeds, episodes)`` score matrix and its 95 % two-level bootstrap CI: ``(iqm, low, high)``.
 
     Args:
-        a: Scores ``(runs, episodes)`` of one policy.
-        b: Scores ``(runs, episodes)`` of the other policy on the same test episodes (any number of runs).
-        statistic: ``iqm``, or ``std`` (standard deviation over all runs and episodes).
+        scores: One row per training seed (one row for a baseline), one column per test episode.
+        trained: Whether the rows are training seeds, resampled first (a baseline's are not).
         seed: Seed of the resampling.
     """
-    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-    if a.shape[1] != b.shape[1]:
-        raise ValueError(f"the two score matrices have different episodes ({a.shape[1]} and {b.shape[1]} columns)")
+    return _two_level([scores], [trained], _batched("iqm"), seed)
+
+
+def difference_ci(
+    a: np.ndarray, b: np.ndarray, a_trained: bool, b_trained: bool, statistic: str = "iqm", seed: int = 0
+) -> tuple[float, float, float]:
+    """``statistic(a) - statistic(b)`` and its 95 % two-level bootstrap CI, the test episodes resampled in pairs.
+
+    Args:
+        a: Scores ``(seeds, episodes)`` of one policy.
+        b: Scores ``(seeds, episodes)`` of the other policy on the same test episodes (any number of seeds).
+        a_trained: Whether ``a``'s rows are training seeds (resampled); likewise ``b_trained``.
+        b_trained: See ``a_trained``.
+        statistic: ``iqm``, or ``std`` (standard deviation over all seeds and episodes).
+        seed: Seed of the resampling.
+    """
     stat = _batched(statistic)
-    return _over_episodes([a, b], lambda x, y: stat(x) - stat(y), seed)
+    return _two_level([a, b], [a_trained, b_trained], lambda x, y: stat(x) - stat(y), seed)
+
+
+def _improvement(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """P(X > Y) of batches ``(batch, seeds, episodes)``: per episode over every pair of seeds, ties count half."""
+    total = np.zeros(len(x))
+    for i in range(x.shape[1]):
+        for k in range(y.shape[1]):
+            a, b = x[:, i], y[:, k]
+            total += np.mean((a > b) + 0.5 * (a == b), axis=1)
+    result: np.ndarray = total / (x.shape[1] * y.shape[1])
+    return result
+
+
+def probability_of_improvement(
+    a: np.ndarray, b: np.ndarray, a_trained: bool, b_trained: bool, seed: int = 0
+) -> tuple[float, float, float]:
+    """P(a > b) as in rliable, and its 95 % two-level bootstrap CI: ``(p, low, high)``.
+
+    On each test episode, every seed of ``a`` is compared with every seed of ``b`` (a tie counts one half);
+    ``p`` is the mean over the seed pairs and episodes, so a policy compared with itself has ``p = 0.5``.
+    """
+    return _two_level([a, b], [a_trained, b_trained], _improvement, seed)
+
+
+def performance_profile(scores: np.ndarray, thresholds: np.ndarray) -> np.ndarray:
+    """Fraction of the scores above each threshold (rliable's performance profile, strict ``>``)."""
+    x = np.asarray(scores, dtype=float).ravel()
+    taus = np.asarray(thresholds, dtype=float)
+    profile: np.ndarray = np.mean(x[None, :] > taus[:, None], axis=1)
+    return profile
 
 
 def verdict(relation: str, low: float, high: float) -> str:

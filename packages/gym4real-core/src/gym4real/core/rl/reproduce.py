@@ -80,8 +80,8 @@ def pooled(result: BenchmarkResult, groups: dict[str, list[str]]) -> BenchmarkRe
     )
 
 
-def check_claim(claim: Claim, scores: dict[str, np.ndarray]) -> dict[str, Any]:
-    """The verdict of one claim, with every comparison's difference and 95 % interval."""
+def check_claim(claim: Claim, scores: dict[str, np.ndarray], trained: set[str]) -> dict[str, Any]:
+    """The verdict of one claim, with every comparison's difference and 95 % interval (``trained``: the agents)."""
     statistic = "std" if claim.relation == "less_variable" else "iqm"
     record: dict[str, Any] = {
         "text": claim.text,
@@ -97,7 +97,9 @@ def check_claim(claim: Claim, scores: dict[str, np.ndarray]) -> dict[str, Any]:
         return record
     verdicts = []
     for other in claim.others:
-        diff, low, high = stats.difference_ci(scores[claim.policy], scores[other], statistic)
+        diff, low, high = stats.difference_ci(
+            scores[claim.policy], scores[other], claim.policy in trained, other in trained, statistic
+        )
         verdicts.append(stats.verdict(claim.relation, low, high))
         record["comparisons"].append({"other": other, "difference": diff, "ci95": [low, high], "verdict": verdicts[-1]})
     if "does not hold" in verdicts:
@@ -113,7 +115,7 @@ def _table(scores: dict[str, np.ndarray], returns: dict[str, list[float]], runs:
     rows = []
     for name, matrix in scores.items():
         mine = [r for r in runs if r.algo == name]
-        value, low, high = stats.iqm_ci(matrix)
+        value, low, high = stats.iqm_ci(matrix, trained=bool(mine))
         row: dict[str, Any] = {
             "policy": name,
             "kind": "agent" if mine else "baseline",
@@ -203,7 +205,8 @@ def reproduce_env(
     test_wall = time.perf_counter() - test_start
     tested = pooled(result, groups)
     table = _table(scores, tested.returns, runs)
-    claims = [{"env_id": env_id, **check_claim(c, scores)} for c in spec.claims]
+    trained = {run.algo for run in runs}
+    claims = [{"env_id": env_id, **check_claim(c, scores, trained)} for c in spec.claims]
     plots.save_figures(tested, folder)
     _curves(runs, folder)
     table.to_csv(folder / "summary.csv")
