@@ -17,7 +17,7 @@ from gym4real.core import (
     register_envs,
 )
 
-__all__ = ["benchmark", "env_info", "list_envs", "make", "plugin_errors", "register_envs"]
+__all__ = ["benchmark", "env_info", "evaluate", "list_envs", "make", "plugin_errors", "register_envs"]
 
 
 def __getattr__(name: str) -> object:
@@ -25,6 +25,10 @@ def __getattr__(name: str) -> object:
         from gym4real.core.benchmark import benchmark
 
         return benchmark
+    if name == "evaluate":  # imports pandas and scipy: only on first use
+        from gym4real.core.evaluate import evaluate
+
+        return evaluate
     raise AttributeError(f"module `gym4real` has no attribute `{name}`")
 
 

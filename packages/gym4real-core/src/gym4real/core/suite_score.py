@@ -2,8 +2,9 @@
 
 **Scale.** On each environment a score is normalised so that 0 is the ``random`` baseline and 1 is the
 best rule-based baseline the paper compares with (the domain declares which of its baselines are
-rule-based: ``BenchmarkSpec.rule_based``); both are means of the per-episode objective over the test
-protocol. As Atari's human-normalised score measures an agent against a competent non-learning player,
+rule-based: ``BenchmarkSpec.rule_based``); both anchors are interquartile means (IQM) of the
+per-episode objective over the test protocol, so that the normalised IQM of the best rule-based baseline
+is exactly 1 and that of ``random`` exactly 0. As Atari's human-normalised score measures an agent against a competent non-learning player,
 this scale measures an RL agent against what a practitioner would deploy without learning: the rule an
 operator writes by hand. Above 1, the agent beats every rule of the paper; between 0 and 1, it learnt
 something but not yet a rule's worth; below 0, it is worse than acting at random. Unlike a "best known
@@ -20,7 +21,7 @@ ahead), or that has no rule-based baseline (robofeeder planning: its baselines a
 oracle and a pretrained agent), has no scale: its scores are reported in its own objective and it is left
 out of the aggregate, with the reason.
 
-**Aggregate.** A run (one training seed on one environment) scores the mean of its normalised test
+**Aggregate.** A run (one training seed on one environment) scores the IQM of its normalised test
 episodes. The aggregate over environments and seeds is the interquartile mean (IQM) of the runs, with a
 stratified percentile bootstrap (each replicate resamples the seeds within each environment, as
 rliable's ``StratifiedBootstrap``); the optimality gap is the mean shortfall of the runs below 1 (how far
@@ -32,12 +33,15 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy import stats as sps
 
 #: Bootstrap replicates of the aggregate intervals.
 REPS = 5000
+#: Thresholds of the suite's performance profile (normalised score).
+THRESHOLDS = np.linspace(-0.5, 2.0, 101)
 #: Anchors closer than this (relative to their size) are equal: the environment has no scale.
 TOLERANCE = 1e-9
 
@@ -48,9 +52,9 @@ class Scale:
 
     Attributes:
         env_id: The environment.
-        random: Mean objective of the ``random`` baseline over the test episodes (NaN if it has none).
+        random: IQM of the ``random`` baseline's objective over the test episodes (NaN if it has none).
         best: The best rule-based baseline (None if the environment has none).
-        top: Its mean objective (NaN if none).
+        top: Its IQM (NaN if none).
         note: Why the environment has no scale; empty when it has one.
     """
 
@@ -65,28 +69,27 @@ class Scale:
         """Whether scores of this environment can be normalised."""
         return not self.note
 
-    def normalise(self, scores: np.ndarray) -> np.ndarray:
-        """``(scores - random) / (top - random)``."""
-        normalised: np.ndarray = (np.asarray(scores, dtype=float) - self.random) / (self.top - self.random)
-        return normalised
+    def normalise(self, scores: Any) -> Any:
+        """``(scores - random) / (top - random)``: increasing, so it maps an IQM and its interval to theirs."""
+        return (np.asarray(scores, dtype=float) - self.random) / (self.top - self.random)
 
 
-def scale(env_id: str, means: Mapping[str, float], rule_based: Sequence[str]) -> Scale:
-    """The scale of an environment from its baselines' mean objectives.
+def scale(env_id: str, anchors: Mapping[str, float], rule_based: Sequence[str]) -> Scale:
+    """The scale of an environment from its baselines' IQMs.
 
     Args:
         env_id: The environment.
-        means: Baseline -> mean objective over the test episodes (``random`` among them).
+        anchors: Baseline -> IQM of its objective over the test episodes (``random`` among them).
         rule_based: The environment's rule-based baselines (``BenchmarkSpec.rule_based``).
     """
-    random = float(means.get("random", np.nan))
-    candidates = [b for b in rule_based if b in means]
-    if "random" not in means:
+    random = float(anchors.get("random", np.nan))
+    candidates = [b for b in rule_based if b in anchors]
+    if "random" not in anchors:
         return Scale(env_id, random, None, np.nan, "no `random` baseline was run")
     if not candidates:
         return Scale(env_id, random, None, np.nan, "no rule-based baseline (the 1 of the scale)")
-    best = max(candidates, key=lambda b: means[b])
-    top = float(means[best])
+    best = max(candidates, key=lambda b: anchors[b])
+    top = float(anchors[best])
     if top - random <= TOLERANCE * max(1.0, abs(top), abs(random)):
         return Scale(
             env_id, random, best, top, f"no rule-based baseline beats `random` (best `{best}`: {top:.6g}, random {random:.6g})"
@@ -95,8 +98,12 @@ def scale(env_id: str, means: Mapping[str, float], rule_based: Sequence[str]) ->
 
 
 def run_scores(scores: np.ndarray, env_scale: Scale) -> np.ndarray:
-    """Normalised score of each run (row) of a ``(seeds, episodes)`` matrix: the mean of its normalised episodes."""
-    runs: np.ndarray = np.mean(env_scale.normalise(scores), axis=1)
+    """Normalised score of each run (row) of a ``(seeds, episodes)`` matrix: the IQM of its normalised episodes.
+
+    The IQM is taken first and then normalised (the same number, as the scale is affine), so that a run
+    identical to an anchor scores exactly 0 or 1.
+    """
+    runs: np.ndarray = env_scale.normalise(iqm_of_rows(np.asarray(scores, dtype=float)))
     return runs
 
 
