@@ -8,7 +8,9 @@ from __future__ import annotations
 
 import json
 import textwrap
+from collections.abc import Callable
 from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 import pandas as pd
@@ -140,3 +142,17 @@ def test_a_seed_asked_of_a_single_model_or_policy_object_is_refused(references: 
 def test_a_malformed_reference_table_is_refused(rows: list[dict[str, object]], message: str) -> None:
     with pytest.raises(ConfigError, match=message):
         read_scores(pd.DataFrame(rows), "ref.csv")
+
+
+def test_the_tutorial_trains_a2c_on_two_envs_and_reads_its_score(
+    tmp_path: Path, load_script: Callable[[Path], ModuleType]
+) -> None:
+    pytest.importorskip("stable_baselines3")
+    tutorial = load_script(Path(__file__).resolve().parents[1] / "examples" / "evaluate_a2c.py")
+    score = tutorial.main(["--steps", "300", "--seeds", "0", "--out", str(tmp_path)])
+    aggregate = score["aggregate"]
+    assert aggregate["envs"] == list(tutorial.TRAINING) and aggregate["runs"] == 2
+    assert aggregate["low"] <= aggregate["iqm"] <= aggregate["high"] and np.isfinite(aggregate["optimality_gap"])
+    for env_id in tutorial.TRAINING:
+        assert score["envs"][env_id]["seeds"] == 1 and (tmp_path / "models" / env_id.split("/")[1] / "seed0").is_dir()
+    assert json.loads((tmp_path / "score" / "score.json").read_text())["aggregate"] == aggregate
