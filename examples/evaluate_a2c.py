@@ -16,12 +16,16 @@ from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
+import numpy as np
 from stable_baselines3 import A2C
 
 import gym4real
 
 #: The environments and the ``make()`` arguments of their training episodes (never the test preset).
-TRAINING = {"gym4real/trading-v0": {"preset": "train"}, "gym4real/wds-v0": {"preset": "train"}}
+TRAINING: dict[str, dict[str, Any]] = {
+    "gym4real/trading-v0": {"preset": "train"},
+    "gym4real/wds-v0": {"preset": "train"},
+}
 
 
 def training_env(env_id: str) -> gym.Env[Any, Any]:
@@ -32,7 +36,7 @@ def training_env(env_id: str) -> gym.Env[Any, Any]:
     """
     env = gym.make(env_id, **TRAINING[env_id])
     if isinstance(env.action_space, gym.spaces.Box):
-        env = gym.wrappers.RescaleAction(env, -1.0, 1.0)
+        env = gym.wrappers.RescaleAction(env, np.float32(-1.0), np.float32(1.0))
     return env
 
 

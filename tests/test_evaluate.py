@@ -58,7 +58,10 @@ def test_the_best_rule_scores_exactly_one_random_zero_and_itself_one_half(refere
     # the reference agent's own suite score: IQM over its seeds of each seed's normalised IQM
     ref = load_reference(ENV, references)
     assert ref is not None
-    low, top = sps.trim_mean(ref.scores["random"], 0.25, axis=None), sps.trim_mean(ref.scores["longest_first"], 0.25, axis=None)
+    low, top = (
+        sps.trim_mean(ref.scores["random"], 0.25, axis=None),
+        sps.trim_mean(ref.scores["longest_first"], 0.25, axis=None),
+    )
     per_seed = (sps.trim_mean(ref.scores["qlearning"], 0.25, axis=1) - low) / (top - low)
     assert score["references"]["qlearning"]["iqm"] == pytest.approx(sps.trim_mean(per_seed, 0.25))
     table = evaluation.table()

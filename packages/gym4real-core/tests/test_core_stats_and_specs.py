@@ -96,12 +96,17 @@ def test_a_claim_holds_only_when_every_comparison_holds() -> None:
     base = rng.normal(0, 1, size=(1, 30))
     scores = {"agent": base + 5 + rng.normal(0, 0.1, (2, 30)), "weak": base, "strong": base + 10, "same": base + 5}
     assert check_claim(Claim("beats weak", "agent", "above", ("weak",)), scores, {"agent"})["verdict"] == "holds"
-    assert check_claim(Claim("beats both", "agent", "above", ("weak", "strong")), scores, {"agent"})["verdict"] == "does not hold"
+    assert (
+        check_claim(Claim("beats both", "agent", "above", ("weak", "strong")), scores, {"agent"})["verdict"]
+        == "does not hold"
+    )
     tie = check_claim(Claim("beats same", "agent", "above", ("same",)), scores, {"agent"})
     assert tie["verdict"] == "inconclusive" and tie["comparisons"][0]["ci95"][0] < 0 < tie["comparisons"][0]["ci95"][1]
     assert check_claim(Claim("x", "agent", "above", ("missing",)), scores, {"agent"})["verdict"] == "not checked"
     steady = {"agent": base * 0.1, "other": base}
-    assert check_claim(Claim("less spread", "agent", "less_variable", ("other",)), steady, {"agent"})["verdict"] == "holds"
+    assert (
+        check_claim(Claim("less spread", "agent", "less_variable", ("other",)), steady, {"agent"})["verdict"] == "holds"
+    )
 
 
 def test_claims_are_checked_records() -> None:

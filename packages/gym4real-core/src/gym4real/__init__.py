@@ -9,6 +9,8 @@ simulator imports happen only when an environment is made.
 # Must stay the first statement: lets the domain distributions' portions join this package.
 __path__ = __import__("pkgutil").extend_path(__path__, __name__)
 
+from typing import TYPE_CHECKING
+
 from gym4real.core import (
     env_info,
     list_envs,
@@ -16,6 +18,10 @@ from gym4real.core import (
     plugin_errors,
     register_envs,
 )
+
+if TYPE_CHECKING:  # imported lazily at run time (``__getattr__``)
+    from gym4real.core.benchmark import benchmark
+    from gym4real.core.evaluate import evaluate
 
 __all__ = ["benchmark", "env_info", "evaluate", "list_envs", "make", "plugin_errors", "register_envs"]
 

@@ -182,16 +182,18 @@ class Evaluation:
                     lines.append(f"   P({agent} > {other}) = {p:.3f} [{p_low:.3f}, {p_high:.3f}]")
             lines.append("")
         lines.append("== suite score (normalised: 0 = random, 1 = best rule-based baseline; IQM over envs x seeds)")
-        lines.append(f"   {'policy':24s} {'kind':9s} {'envs':>4s} {'runs':>4s} {'IQM [95% CI]':>26s} {'optimality gap':>26s}")
+        lines.append(
+            f"   {'policy':24s} {'kind':9s} {'envs':>4s} {'runs':>4s} {'IQM [95% CI]':>26s} {'optimality gap':>26s}"
+        )
         for policy in [*self.agents, *self.references()]:
             agg = self.aggregate(policy)
             kind = "agent" if policy in self.agents else "reference"
             if agg["iqm"] is None:
                 lines.append(f"   {policy:24s} {kind:9s} no environment with a normalised scale")
                 continue
-            iqm = f"{agg['iqm']:.3f} [{agg['low']:.3f}, {agg['high']:.3f}]"
+            value = f"{agg['iqm']:.3f} [{agg['low']:.3f}, {agg['high']:.3f}]"
             gap = f"{agg['optimality_gap']:.3f} [{agg['optimality_gap_low']:.3f}, {agg['optimality_gap_high']:.3f}]"
-            lines.append(f"   {policy:24s} {kind:9s} {len(agg['envs']):>4d} {agg['runs']:>4d} {iqm:>26s} {gap:>26s}")
+            lines.append(f"   {policy:24s} {kind:9s} {len(agg['envs']):>4d} {agg['runs']:>4d} {value:>26s} {gap:>26s}")
         lines.append("   intervals: 95 % stratified bootstrap over seeds (one seed: no spread to resample)")
         return "\n".join(lines)
 
@@ -201,7 +203,7 @@ class Evaluation:
         for env_id, result in self.envs.items():
             for policy, matrix in result.scores.items():
                 normalised = result.scale.normalise(matrix) if result.scale.usable else np.full(matrix.shape, np.nan)
-                seeds = result.seeds.get(policy) or [None] * matrix.shape[0]
+                seeds: list[int | None] = [*result.seeds[policy]] or [None] * matrix.shape[0]
                 for row, seed in enumerate(seeds):
                     for episode in range(matrix.shape[1]):
                         rows.append(
@@ -244,32 +246,43 @@ def _filled(ref: str, env_id: str, seed: int) -> str:
     return ref.replace("{env}", slug(env_id)).replace("{seed}", str(seed))
 
 
+def _of_policy(env_id: str, ref: PolicyRef) -> Builder:
+    return lambda env: make_policy(env_id, ref, env)
+
+
+def _of_factory(factory: Callable[..., Any], name: str, seed: int | None) -> Builder:
+    return lambda env: build_policy(factory, env, name, seed)
+
+
+def _of_string(ref: str, env_id: str, seed: int | None) -> Builder:
+    """A policy string with ``{env}`` and ``{seed}`` filled in; a ``module:attr`` factory gets the seed."""
+    filled = _filled(ref, env_id, seed or 0)
+    if is_user_object(filled):
+        return lambda env: user_policy(filled, env, seed)
+    return _of_policy(env_id, filled)
+
+
+def _labels(name: str, count: int, seeds: Sequence[int] | None) -> list[int]:
+    if seeds is not None and len(seeds) != count:
+        raise ConfigError(f"agent `{name}` has {count} policies (one per seed) but {len(seeds)} seeds")
+    return list(seeds) if seeds is not None else list(range(count))
+
+
 def _builders(name: str, agent: Agent, env_id: str, seeds: Sequence[int] | None) -> list[tuple[int, Builder]]:
     """``(seed, build)`` per training seed of an agent on ``env_id``; ``build(env)`` returns the policy."""
-
-    def of_string(ref: str, seed: int | None) -> Builder:
-        filled = _filled(ref, env_id, seed or 0)
-        if is_user_object(filled):
-            return lambda env: user_policy(filled, env, seed)
-        return lambda env: make_policy(env_id, filled, env)
-
-    if isinstance(agent, Mapping):
+    if isinstance(agent, Mapping):  # policies, given per env (a sequence: one per seed)
         if env_id not in agent:
             return []
         per_env = agent[env_id]
         refs = list(per_env) if isinstance(per_env, Sequence) and not isinstance(per_env, str) else [per_env]
-        labels = list(seeds) if seeds is not None and len(seeds) == len(refs) else list(range(len(refs)))
         return [
-            (s, (lambda env, r=r: make_policy(env_id, r, env)) if callable(r) else of_string(r, None))
-            for s, r in zip(labels, refs, strict=True)
+            (s, _of_policy(env_id, r) if callable(r) else _of_string(r, env_id, None))
+            for s, r in zip(_labels(name, len(refs), seeds), refs, strict=True)
         ]
-    if isinstance(agent, Sequence) and not isinstance(agent, str):
-        labels = list(seeds) if seeds is not None else list(range(len(agent)))
-        if len(labels) != len(agent):
-            raise ConfigError(f"agent `{name}` has {len(agent)} policies (one per seed) but {len(labels)} seeds")
+    if isinstance(agent, Sequence) and not isinstance(agent, str):  # factories, one per seed
         return [
-            (s, (lambda env, f=f: build_policy(f, env, name)) if callable(f) else of_string(f, None))
-            for s, f in zip(labels, agent, strict=True)
+            (s, _of_factory(f, name, None) if callable(f) else _of_string(f, env_id, None))
+            for s, f in zip(_labels(name, len(agent), seeds), agent, strict=True)
         ]
     if isinstance(agent, str):
         if seeds is not None and len(seeds) > 1 and not is_user_object(agent) and "{seed}" not in agent:
@@ -277,9 +290,9 @@ def _builders(name: str, agent: Agent, env_id: str, seeds: Sequence[int] | None)
                 f"agent `{name}` (`{agent}`) names no `{{seed}}`, so every seed would be the same policy: "
                 "write the seed into the path (`sb3:a2c:runs/{env}/seed{seed}/model.zip`), or evaluate one seed"
             )
-        return [(s, of_string(agent, s if seeds is not None else None)) for s in (seeds or [0])]
+        return [(s, _of_string(agent, env_id, s if seeds is not None else None)) for s in (seeds or [0])]
     if callable(agent):
-        return [(s, lambda env, s=s: build_policy(agent, env, name, s if seeds is not None else None)) for s in (seeds or [0])]
+        return [(s, _of_factory(agent, name, s if seeds is not None else None)) for s in (seeds or [0])]
     raise ConfigError(f"agent `{name}` is a {type(agent).__name__}; expected a policy string, a factory or a mapping")
 
 
@@ -298,8 +311,12 @@ def _run_agent(
                 ret = float(run["rewards"].sum())
                 value = float(sum(run["components"].get(c, 0.0) for c in objective)) if objective else ret
                 if not np.isfinite(value):
-                    raise PolicyError(f"agent `{name}` scored a non-finite objective on `{env_id}` (seed {seed}, episode {i})")
-                rows.append({"policy": name, "seed": seed, "episode": i, "objective": value, "return": ret, **run["components"]})
+                    raise PolicyError(
+                        f"agent `{name}` scored a non-finite objective on `{env_id}` (seed {seed}, episode {i})"
+                    )
+                rows.append(
+                    {"policy": name, "seed": seed, "episode": i, "objective": value, "return": ret, **run["components"]}
+                )
         finally:
             env.close()
     frame = pd.DataFrame(rows)
@@ -367,7 +384,11 @@ def evaluate(
         if missing:
             result = benchmark(env_id, missing, episodes="test")
             for b in missing:
-                scores[b], kinds[b], run_seeds[b] = np.asarray(result.objective_values(b), dtype=float)[None], "baseline", []
+                scores[b], kinds[b], run_seeds[b] = (
+                    np.asarray(result.objective_values(b), dtype=float)[None],
+                    "baseline",
+                    [],
+                )
         frames = []
         for name, agent in policies.items():
             if name in scores:

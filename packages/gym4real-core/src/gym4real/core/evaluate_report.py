@@ -37,7 +37,10 @@ def figures(evaluation: Evaluation, out: Path) -> list[Path]:
     for ax, (key, title) in zip(axes, (("iqm", "IQM (normalised)"), ("optimality_gap", "optimality gap")), strict=True):
         for row, policy in enumerate(policies):
             agg = evaluation.aggregate(policy)
-            low, high = agg["low" if key == "iqm" else "optimality_gap_low"], agg["high" if key == "iqm" else "optimality_gap_high"]
+            low, high = (
+                agg["low" if key == "iqm" else "optimality_gap_low"],
+                agg["high" if key == "iqm" else "optimality_gap_high"],
+            )
             ax.barh(row, high - low, left=low, height=0.6, color=colours[policy], alpha=0.6)
             ax.vlines(agg[key], row - 0.3, row + 0.3, color="black")
         ax.set(title=title, xlabel="normalised score (0 = random, 1 = best rule-based)")

@@ -4,15 +4,16 @@
 best rule-based baseline the paper compares with (the domain declares which of its baselines are
 rule-based: ``BenchmarkSpec.rule_based``); both anchors are interquartile means (IQM) of the
 per-episode objective over the test protocol, so that the normalised IQM of the best rule-based baseline
-is exactly 1 and that of ``random`` exactly 0. As Atari's human-normalised score measures an agent against a competent non-learning player,
-this scale measures an RL agent against what a practitioner would deploy without learning: the rule an
-operator writes by hand. Above 1, the agent beats every rule of the paper; between 0 and 1, it learnt
-something but not yet a rule's worth; below 0, it is worse than acting at random. Unlike a "best known
+is exactly 1 and that of ``random`` exactly 0. As Atari's human-normalised score measures an agent
+against a competent player who does not learn, this scale measures an RL agent against what a
+practitioner would deploy without learning: the rule an operator writes by hand. Above 1, the agent
+beats every rule of the paper; between 0 and 1, it learnt something but not yet a rule's worth; below 0,
+it is worse than acting at random. Unlike a "best known
 score" the anchors never move as agents improve, and unlike an oracle they exist on every environment
 without privileged information.
 
 **Special cases.** The scale is affine, so the sign and range of an objective do not matter: a cost
-objective (dam, wds: never above 0) and a success rate (robofeeder: in [0, 1]) normalise alike, and a
+objective (dam: never above 0) and a success rate (robofeeder: in [0, 1]) normalise alike, and a
 perfect agent on a one-sided objective gets a finite score (a cost of 0 gives ``-random / (best -
 random)``). A rule-based baseline worse than ``random`` (trading: a passive position in a falling
 market) gets a negative score; it is still a baseline, and only the best one is the anchor. An
@@ -92,7 +93,11 @@ def scale(env_id: str, anchors: Mapping[str, float], rule_based: Sequence[str]) 
     top = float(anchors[best])
     if top - random <= TOLERANCE * max(1.0, abs(top), abs(random)):
         return Scale(
-            env_id, random, best, top, f"no rule-based baseline beats `random` (best `{best}`: {top:.6g}, random {random:.6g})"
+            env_id,
+            random,
+            best,
+            top,
+            f"no rule-based baseline beats `random` (best `{best}`: {top:.6g}, random {random:.6g})",
         )
     return Scale(env_id, random, best, top)
 

@@ -147,8 +147,10 @@ def _buffer_class(path: Path, saved: Any) -> type:
 
 
 def _named_classes() -> dict[str, type]:
-    """``str(cls)`` -> cls for the classes a policy's keyword arguments may name: torch's activation modules
-    and optimizers, SB3's feature extractors."""
+    """``str(cls)`` -> cls for the classes a policy's keyword arguments may name.
+
+    Those are torch's activation modules and optimizers and SB3's feature extractors.
+    """
     import torch
     from stable_baselines3.common import torch_layers
 

@@ -131,9 +131,7 @@ def load_model(env: gym.Env[Any, Any], path: str | Path, algo: str) -> Normalize
     try:
         model = algo_cls.load(path, device="cpu", custom_objects=objects)
     except Exception as exc:  # a zip that passed the data check but whose weights do not fit
-        raise PolicyError(
-            f"`{path}` is not a loadable {SB3_ALGOS[algo]} model for this environment: {exc}"
-        ) from exc
+        raise PolicyError(f"`{path}` is not a loadable {SB3_ALGOS[algo]} model for this environment: {exc}") from exc
     stats_path = path.with_name("normalize.npz")
     stats = dict(np.load(stats_path, allow_pickle=False)) if stats_path.exists() else None
     return NormalizedPolicy(model, stats, env.action_space)
@@ -147,7 +145,6 @@ def load_ppo(env: gym.Env[Any, Any], path: str | Path) -> NormalizedPolicy:
 def load_dqn(env: gym.Env[Any, Any], path: str | Path) -> NormalizedPolicy:
     """Policy loader of ``dqn:PATH``."""
     return load_model(env, path, "dqn")
-
 
 
 def _rms_arrays(vec: Any) -> dict[str, Any]:
