@@ -68,6 +68,12 @@ def test_the_best_rule_scores_exactly_one_random_zero_and_itself_one_half(refere
     assert "qlearning                reference" in table and f"reference runs: paper budget, {ref.source}" in table
 
 
+def test_without_agents_only_the_reference_agents_are_scored(references: Path) -> None:
+    score = gym4real.evaluate({}, [ENV], references=references).score()
+    assert score["agents"] == {} and list(score["references"]) == ["qlearning"]
+    assert score["references"]["qlearning"]["runs"] == 2  # its two seeds
+
+
 def test_a_changed_env_version_is_refused(references: Path, tmp_path: Path) -> None:
     changed = tmp_path / "reference"
     changed.mkdir()
@@ -159,3 +165,16 @@ def test_the_tutorial_trains_a2c_on_two_envs_and_reads_its_score(
     for env_id in tutorial.TRAINING:
         assert score["envs"][env_id]["seeds"] == 1 and (tmp_path / "models" / env_id.split("/")[1] / "seed0").is_dir()
     assert json.loads((tmp_path / "score" / "score.json").read_text())["aggregate"] == aggregate
+
+
+def test_bench_runs_a_user_module_factory_and_names_a_module_it_cannot_import(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    (tmp_path / "bench_agents.py").write_text("def always_up(env):\n    return lambda obs: 1\n")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    args = ["bench", ENV, "--episodes", "1", "--quiet", "--out", str(tmp_path / "out")]
+    assert main([*args, "--policies", "bench_agents:always_up"]) == 0
+    assert "bench_agents:always_up" in pd.read_csv(tmp_path / "out" / "summary.csv")["policy"].tolist()
+    assert main([*args, "--policies", "no_such_module:factory"]) == 2
+    assert "cannot import `no_such_module:factory`" in capsys.readouterr().err

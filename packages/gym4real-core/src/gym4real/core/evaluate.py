@@ -140,7 +140,7 @@ class Evaluation:
             e: {"random": r.scale.random, "best_rule_based": r.scale.best, "best": r.scale.top, "note": r.scale.note}
             for e, r in self.envs.items()
         }
-        out: dict[str, Any] = dict(agents[self.agents[0]]) if len(self.agents) == 1 else {}
+        out: dict[str, Any] = dict(agents[self.agents[0]]) if len(self.agents) == 1 else {}  # the issue's shape
         out.update(
             agents=agents,
             references={p: self.aggregate(p) for p in self.references()},
@@ -345,7 +345,8 @@ def evaluate(
             ``dam-v0``, and the seed), or a factory ``factory(env) -> policy`` (``factory(env, seed=S)`` when
             ``seeds`` is given), for every environment; a sequence of those, one per training seed; or a
             mapping env id -> policy (or a sequence, one per seed). The training seed is the unit of
-            replication, as in the reference runs.
+            replication, as in the reference runs. Empty: only the reference agents are scored (their suite
+            scores, for a results page).
         envs: ``"all"`` (every installed environment with a test protocol) or env ids.
         seeds: The training seeds (labels of the runs; a single string or factory is built once per seed).
         references: A folder of reference files to use instead of those the domains ship.
@@ -356,8 +357,6 @@ def evaluate(
         PolicyError: A policy that cannot be built or acts out of its space.
         ConfigError: An agent named like a reference policy, or policies and seeds that do not match.
     """
-    if not policies:
-        raise ConfigError("no agent to evaluate: pass {name: policy}")
     seed_list = list(seeds) if seeds is not None else None
     evaluation = Evaluation(list(policies))
     for env_id in _env_ids(envs):

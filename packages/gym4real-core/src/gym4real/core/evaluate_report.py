@@ -43,6 +43,7 @@ def figures(evaluation: Evaluation, out: Path) -> list[Path]:
             )
             ax.barh(row, high - low, left=low, height=0.6, color=colours[policy], alpha=0.6)
             ax.vlines(agg[key], row - 0.3, row + 0.3, color="black")
+        ax.margins(x=0.15)
         ax.set(title=title, xlabel="normalised score (0 = random, 1 = best rule-based)")
         ax.grid(axis="x", alpha=0.3)
     axes[0].set_yticks(range(len(policies)), policies)
