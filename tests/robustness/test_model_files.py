@@ -76,8 +76,12 @@ def _saved_model(kind: str, env_id: str, path: Path) -> None:
     elif algo == "a2c":  # A2C pickles its policy kwargs (the RMSprop optimizer class); these name an activation too
         kwargs = {"net_arch": [16], "activation_fn": torch.nn.ReLU}
         model = sb3.A2C(policy, env, n_steps=8, seed=0, device="cpu", policy_kwargs=kwargs)
-    else:
-        model = getattr(sb3, algo.upper())(policy, env, buffer_size=100, learning_starts=10, seed=0, device="cpu")
+    else:  # an off-policy algorithm of SB3 or sb3-contrib
+        from gym4real.core.policies import load_object
+        from gym4real.core.rl.model_file import SB3_ALGOS
+
+        algo_cls = load_object(SB3_ALGOS[algo])
+        model = algo_cls(policy, env, buffer_size=100, learning_starts=10, seed=0, device="cpu")
     model.learn(32)  # a model saved after training also pickles its training state (`_last_obs`, ...)
     model.save(path)
 
@@ -89,6 +93,8 @@ def _saved_model(kind: str, env_id: str, path: Path) -> None:
         ("dqn", "gym4real/elevator-v0"),
         ("sb3:a2c", "gym4real/elevator-v0"),
         ("sb3:sac", "gym4real/dam-v0"),
+        ("sb3:qrdqn", "gym4real/elevator-v0"),
+        ("sb3:tqc", "gym4real/dam-v0"),
     ],
 )
 def test_no_entry_sb3_writes_is_unpickled_either(kind: str, env_id: str, tmp_path: Path) -> None:
@@ -166,5 +172,5 @@ def test_policy_kwargs_that_are_not_literals_or_known_classes_are_refused(tmp_pa
 def test_an_algorithm_sb3_does_not_ship_is_refused(tmp_path: Path) -> None:
     model = tmp_path / "model.zip"
     _saved_model("sb3:a2c", "gym4real/elevator-v0", model)
-    with pytest.raises(PolicyError, match="unknown Stable-Baselines3 algorithm `trpo`"):
-        make_policy("gym4real/elevator-v0", f"sb3:trpo:{model}", gym.make("gym4real/elevator-v0"))
+    with pytest.raises(PolicyError, match="unknown Stable-Baselines3 algorithm `ars`"):
+        make_policy("gym4real/elevator-v0", f"sb3:ars:{model}", gym.make("gym4real/elevator-v0"))

@@ -291,8 +291,9 @@ def _parser() -> argparse.ArgumentParser:
         "policies",
         nargs="+",
         metavar="POLICY",
-        help="[NAME=]POLICY: your module:attr factory or policy (imported and run), sb3:ALGO:PATH (any SB3 "
-        "algorithm), ppo:PATH, ..., or a baseline; {env} and {seed} in it are replaced by the env name and the seed",
+        help="[NAME=]POLICY: your module:attr factory or policy (imported and run), sb3:ALGO:PATH (any SB3 or "
+        "sb3-contrib algorithm), ppo:PATH, ..., or a baseline; {env} and {seed} in it are replaced by the env name "
+        "and the seed",
     )
     ev.add_argument("--envs", help="comma-separated environment ids")
     ev.add_argument("--all", action="store_true", help="every installed environment with a test protocol")

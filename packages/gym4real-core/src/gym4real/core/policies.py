@@ -8,7 +8,8 @@ A policy string is one of:
 
 - a baseline name (``longest_first``);
 - a model file, read as data (never unpickled): ``ppo:PATH``, ``dqn:PATH``, ``qlearning:PATH``,
-  ``sarsa:PATH``, or ``sb3:ALGO:PATH`` for a Stable-Baselines3 model of any algorithm SB3 ships;
+  ``sarsa:PATH``, or ``sb3:ALGO:PATH`` for a Stable-Baselines3 model of any algorithm SB3 ships (and of
+  sb3-contrib's CrossQ, QRDQN, TQC, TRPO);
 - ``module:attr``, your own code, which is imported and run (trust it as you trust a plugin): a
   function or class is a factory ``factory(env) -> policy`` (``factory(env, seed=S)`` when seeds are
   asked for), any other callable object is the policy itself.
@@ -95,7 +96,8 @@ USER_OBJECT = re.compile(r"^[A-Za-z_]\w*(\.[A-Za-z_]\w*)*:[A-Za-z_]\w*(\.[A-Za-z
 #: The policy strings, for error messages.
 POLICY_FORMS = (
     "a baseline name, `ppo:PATH`, `dqn:PATH`, `qlearning:PATH`, `sarsa:PATH`, `sb3:ALGO:PATH` (a Stable-Baselines3 "
-    "model of A2C, DDPG, DQN, PPO, SAC or TD3) or `module:attr` (your own factory or policy, imported)"
+    "model of A2C, DDPG, DQN, PPO, SAC, TD3, or sb3-contrib's CrossQ, QRDQN, TQC, TRPO) or `module:attr` (your own "
+    "factory or policy, imported)"
 )
 
 

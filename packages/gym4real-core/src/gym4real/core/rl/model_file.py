@@ -2,7 +2,8 @@
 
 SB3's ``load`` unpickles (cloudpickle) every entry of the zip's ``data`` JSON marked ``:serialized:``,
 so a crafted file runs code the moment it is loaded. gym4real reads ``data`` itself first: an entry
-that SB3 does not write for the file's algorithm (A2C, DDPG, DQN, PPO, SAC, TD3) is refused by name,
+that SB3 does not write for the file's algorithm (A2C, DDPG, DQN, PPO, SAC, TD3, and sb3-contrib's CrossQ,
+QRDQN, TQC, TRPO) is refused by name,
 and every entry it does write is replaced, through SB3's ``custom_objects``, by an object built here
 (the environment's spaces, SB3's own policy and buffer classes, constant schedules, and the policy's
 keyword arguments rebuilt from the text SB3 writes beside their pickle: literals, and torch's activation
@@ -36,7 +37,7 @@ _COMMON = TRAINING_STATE | {"policy_class", "observation_space", "action_space",
 _ON_POLICY = _COMMON | {"rollout_buffer_class"}
 _OFF_POLICY = _COMMON | {"replay_buffer_class", "train_freq", "action_noise"}
 
-#: The pickled entries SB3 writes for each algorithm it ships; anything else pickled is refused.
+#: The pickled entries SB3 and sb3-contrib write for each algorithm; anything else pickled is refused.
 SERIALIZED_ENTRIES: dict[str, frozenset[str]] = {
     "a2c": _ON_POLICY,
     "ppo": _ON_POLICY | {"clip_range", "clip_range_vf"},
@@ -44,17 +45,39 @@ SERIALIZED_ENTRIES: dict[str, frozenset[str]] = {
     "sac": _OFF_POLICY,
     "td3": _OFF_POLICY,
     "ddpg": _OFF_POLICY,
+    "qrdqn": _OFF_POLICY | {"exploration_schedule"},
+    "tqc": _OFF_POLICY | {"target_entropy"},
+    "trpo": _ON_POLICY,
+    "crossq": _OFF_POLICY,
 }
 
-#: Algorithm key -> SB3 class name.
-SB3_ALGOS = {"a2c": "A2C", "ddpg": "DDPG", "dqn": "DQN", "ppo": "PPO", "sac": "SAC", "td3": "TD3"}
+#: Algorithm key -> ``module:Class`` (sb3-contrib's where it is installed; its recurrent and maskable
+#: PPO and ARS are left out: their policies need state or action masks that a plain policy call lacks).
+SB3_ALGOS = {
+    "a2c": "stable_baselines3:A2C",
+    "ddpg": "stable_baselines3:DDPG",
+    "dqn": "stable_baselines3:DQN",
+    "ppo": "stable_baselines3:PPO",
+    "sac": "stable_baselines3:SAC",
+    "td3": "stable_baselines3:TD3",
+    "crossq": "sb3_contrib:CrossQ",
+    "qrdqn": "sb3_contrib:QRDQN",
+    "tqc": "sb3_contrib:TQC",
+    "trpo": "sb3_contrib:TRPO",
+}
+
+
+def algo_name(algo: str) -> str:
+    """The class name of an algorithm key (``qrdqn`` -> ``QRDQN``)."""
+    return SB3_ALGOS[algo].partition(":")[2]
+
 
 #: Buffer classes of SB3 that a model file may name (only used to rebuild the algorithm object).
 BUFFERS = ("RolloutBuffer", "DictRolloutBuffer", "ReplayBuffer", "DictReplayBuffer", "NStepReplayBuffer")
 
 TRUST_NOTE = (
     "a model file is data: gym4real never unpickles it, and loads only the weights and the settings "
-    f"that Stable-Baselines3 writes for {', '.join(SB3_ALGOS.values())}"
+    f"that Stable-Baselines3 and sb3-contrib write for {', '.join(algo_name(a) for a in SB3_ALGOS)}"
 )
 
 
@@ -218,11 +241,11 @@ def custom_objects(
     if refused:
         raise PolicyError(
             f"model `{path}` holds pickled entr{'y' if len(refused) == 1 else 'ies'} "
-            f"{', '.join(f'`{k}`' for k in refused)} that Stable-Baselines3 does not write for {SB3_ALGOS[algo]}; "
+            f"{', '.join(f'`{k}`' for k in refused)} that Stable-Baselines3 does not write for {algo_name(algo)}; "
             f"it was not loaded ({TRUST_NOTE}). Save the model with Stable-Baselines3's own `save`"
         )
     if "policy_class" not in data or "observation_space" not in data or "action_space" not in data:
-        raise PolicyError(f"model `{path}` is not a {SB3_ALGOS[algo]} model file: it names no policy class or spaces")
+        raise PolicyError(f"model `{path}` is not a {algo_name(algo)} model file: it names no policy class or spaces")
     _check_space(path, "observation_space", data["observation_space"], observation_space)
     _check_space(path, "action_space", data["action_space"], action_space)
     constant: Callable[[float], float] = ConstantSchedule(0.0)
@@ -236,6 +259,7 @@ def custom_objects(
         "exploration_schedule": constant,
         "train_freq": TrainFreq(1, TrainFrequencyUnit.STEP),
         "action_noise": None,  # exploration noise of training; a deterministic policy never draws it
+        "target_entropy": 0.0,  # TQC's entropy target, a training setting that acting never reads
         **dict.fromkeys(TRAINING_STATE),
     }
     if "policy_kwargs" in pickled:
