@@ -137,7 +137,12 @@ class Evaluation:
         """The content of ``score.json``: each agent's record (the only agent's also at the top level)."""
         agents = {a: self.record(a) for a in self.agents}
         scales = {
-            e: {"random": r.scale.random, "best_rule_based": r.scale.best, "best": r.scale.top, "note": r.scale.note}
+            e: {
+                "random": _finite(r.scale.random),
+                "best_rule_based": r.scale.best,
+                "best": _finite(r.scale.top),
+                "note": r.scale.note,
+            }
             for e, r in self.envs.items()
         }
         out: dict[str, Any] = dict(agents[self.agents[0]]) if len(self.agents) == 1 else {}  # the issue's shape
@@ -232,6 +237,11 @@ class Evaluation:
         written += evaluate_report.figures(self, out)
         written.append(evaluate_report.write_report(self, out, [p.name for p in written[3:]]))
         return written
+
+
+def _finite(value: float) -> float | None:
+    """A number for JSON: None for NaN (an anchor the environment lacks)."""
+    return float(value) if np.isfinite(value) else None
 
 
 def _env_ids(envs: str | Sequence[str]) -> list[str]:
@@ -358,6 +368,8 @@ def evaluate(
         ConfigError: An agent named like a reference policy, or policies and seeds that do not match.
     """
     seed_list = list(seeds) if seeds is not None else None
+    if seed_list is not None and len(set(seed_list)) != len(seed_list):
+        raise ConfigError(f"seeds {seed_list} repeat a seed; each training seed is one run")
     evaluation = Evaluation(list(policies))
     for env_id in _env_ids(envs):
         spec = protocol(env_id)
