@@ -27,6 +27,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("results", nargs="?", default="docs/results", help="results folder (default docs/results)")
     parser.add_argument("env_ids", nargs="*", metavar="ENV_ID", help="environments (default: every one with results)")
     parser.add_argument("--budget", default="paper", help="budget of the runs (default paper)")
+    parser.add_argument("--into", default=None, help="write here instead of the domain packages (to look first)")
     args = parser.parse_args(argv)
     results = Path(args.results)
     env_ids = args.env_ids or [
@@ -39,7 +40,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     for env_id in env_ids:
         try:
-            print(f"wrote {export_reference(env_id, results, args.budget)}")
+            print(f"wrote {export_reference(env_id, results, args.budget, args.into)}")
         except Gym4RealError as exc:
             print(f"export_references: error: {env_id}: {exc}", file=sys.stderr)
             return 2

@@ -20,13 +20,13 @@ from scipy import stats as sps
 import gym4real
 from gym4real.core.cli import main
 from gym4real.core.errors import ConfigError, PolicyError, ReferenceMismatchError
-from gym4real.core.reference import export_reference, load_reference, read_scores
+from gym4real.core.reference import load_reference, read_scores
 
 ENV = "gym4real/elevator-v0"
 
 
 @pytest.fixture(scope="module")
-def references(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def references(tmp_path_factory: pytest.TempPathFactory, load_script: Callable[[Path], ModuleType]) -> Path:
     """Reference files of elevator: its three baselines as run now, and `qlearning`, two synthetic seeds."""
     root = tmp_path_factory.mktemp("refs")
     result = gym4real.benchmark(ENV, ["random", "longest_first", "shortest_first"], episodes="test")
@@ -42,7 +42,8 @@ def references(tmp_path_factory: pytest.TempPathFactory) -> Path:
     folder.mkdir(parents=True)
     pd.DataFrame(rows).to_csv(folder / "episodes.csv", index=False)
     (folder / "manifest.json").write_text(json.dumps({"command": "gym4real reproduce --budget paper"}))
-    export_reference(ENV, root / "results", into=root / "reference")
+    export = load_script(Path(__file__).resolve().parents[1] / "scripts" / "export_references.py")
+    assert export.main([str(root / "results"), "--into", str(root / "reference")]) == 0  # finds elevator's table
     return root / "reference"
 
 
@@ -79,6 +80,8 @@ def test_a_changed_env_version_is_refused(references: Path, tmp_path: Path) -> N
     changed.mkdir()
     (changed / "elevator-v0.csv").write_bytes((references / "elevator-v0.csv").read_bytes())
     record = json.loads((references / "elevator-v0.json").read_text())
+    assert record["budget"] == "paper" and record["manifest"] == {"command": "gym4real reproduce --budget paper"}
+    assert record["fingerprint"]["episodes"] == 30 and record["fingerprint"]["fidelity"] == "corrected"
     installed = record["fingerprint"]["version"]
     record["fingerprint"]["version"] = "0.0.1"
     (changed / "elevator-v0.json").write_text(json.dumps(record))
