@@ -61,9 +61,15 @@ class EnvResult:
     seeds: dict[str, list[int]]
     episodes: pd.DataFrame
     reference: str
+    _records: dict[str, dict[str, Any]] = field(default_factory=dict, repr=False)
 
     def record(self, agent: str) -> dict[str, Any]:
-        """The agent's entry of ``score.json`` for this environment."""
+        """The agent's entry of ``score.json`` for this environment (computed once: the bootstrap is seeded)."""
+        if agent not in self._records:
+            self._records[agent] = self._record(agent)
+        return self._records[agent]
+
+    def _record(self, agent: str) -> dict[str, Any]:
         matrix = self.scores[agent]
         iqm, low, high = stats.iqm_ci(matrix, trained=True)
         entry: dict[str, Any] = {"seeds": matrix.shape[0], "episodes": matrix.shape[1], "iqm": iqm}
@@ -96,6 +102,7 @@ class Evaluation:
 
     agents: list[str]
     envs: dict[str, EnvResult] = field(default_factory=dict)
+    _aggregates: dict[str, dict[str, Any]] = field(default_factory=dict, repr=False)
 
     def references(self) -> list[str]:
         """The reference agents (paper agents) found on any environment."""
@@ -110,7 +117,12 @@ class Evaluation:
         }
 
     def aggregate(self, policy: str) -> dict[str, Any]:
-        """The policy's suite score: IQM, optimality gap and their stratified-bootstrap intervals."""
+        """The policy's suite score: IQM, optimality gap and their stratified-bootstrap intervals (computed once)."""
+        if policy not in self._aggregates:
+            self._aggregates[policy] = self._aggregate(policy)
+        return self._aggregates[policy]
+
+    def _aggregate(self, policy: str) -> dict[str, Any]:
         runs = self.runs(policy)
         if not runs:
             return {"iqm": None, "low": None, "high": None, "optimality_gap": None, "envs": []}
