@@ -63,21 +63,40 @@ def test_a_pickled_entry_sb3_does_not_write_is_refused_by_name(kind: str, tmp_pa
 
 
 def _saved_model(kind: str, env_id: str, path: Path) -> None:
-    from stable_baselines3 import DQN, PPO
+    import stable_baselines3 as sb3
+    import torch
 
     from gym4real.core.rl.sb3 import _rescale
 
     env = _rescale(gym.make(env_id))
     policy = "MultiInputPolicy" if isinstance(env.observation_space, gym.spaces.Dict) else "MlpPolicy"
-    if kind == "ppo":
-        model = PPO(policy, env, n_steps=32, batch_size=32, n_epochs=1, seed=0, device="cpu")
-    else:
-        model = DQN(policy, env, buffer_size=100, learning_starts=10, seed=0, device="cpu")
+    algo = kind.removeprefix("sb3:")
+    if algo == "ppo":
+        model = sb3.PPO(policy, env, n_steps=32, batch_size=32, n_epochs=1, seed=0, device="cpu")
+    elif algo == "a2c":  # A2C pickles its policy kwargs (the RMSprop optimizer class); these name an activation too
+        kwargs = {"net_arch": [16], "activation_fn": torch.nn.ReLU}
+        model = sb3.A2C(policy, env, n_steps=8, seed=0, device="cpu", policy_kwargs=kwargs)
+    else:  # an off-policy algorithm of SB3 or sb3-contrib
+        from gym4real.core.policies import load_object
+        from gym4real.core.rl.model_file import SB3_ALGOS
+
+        algo_cls = load_object(SB3_ALGOS[algo])
+        model = algo_cls(policy, env, buffer_size=100, learning_starts=10, seed=0, device="cpu")
     model.learn(32)  # a model saved after training also pickles its training state (`_last_obs`, ...)
     model.save(path)
 
 
-@pytest.mark.parametrize(("kind", "env_id"), [("ppo", "gym4real/dam-v0"), ("dqn", "gym4real/elevator-v0")])
+@pytest.mark.parametrize(
+    ("kind", "env_id"),
+    [
+        ("ppo", "gym4real/dam-v0"),
+        ("dqn", "gym4real/elevator-v0"),
+        ("sb3:a2c", "gym4real/elevator-v0"),
+        ("sb3:sac", "gym4real/dam-v0"),
+        ("sb3:qrdqn", "gym4real/elevator-v0"),
+        ("sb3:tqc", "gym4real/dam-v0"),
+    ],
+)
 def test_no_entry_sb3_writes_is_unpickled_either(kind: str, env_id: str, tmp_path: Path) -> None:
     clean, crafted, marker = tmp_path / "clean" / "model.zip", tmp_path / "crafted" / "model.zip", tmp_path / "m"
     clean.parent.mkdir()
@@ -94,6 +113,8 @@ def test_no_entry_sb3_writes_is_unpickled_either(kind: str, env_id: str, tmp_pat
 
     _rewrite_data(crafted, poison)
     assert {"policy_class", "observation_space", "action_space", "lr_schedule", "_last_obs"} <= set(pickled)
+    if kind == "sb3:a2c":
+        assert "policy_kwargs" in pickled
     env = gym.make(env_id)
     reference, loaded = make_policy(env_id, f"{kind}:{clean}", env), make_policy(env_id, f"{kind}:{crafted}", env)
     assert not marker.exists()
@@ -132,3 +153,24 @@ def test_a_file_that_is_not_a_model_is_a_clear_error(content: bytes | None, mess
             archive.writestr("data" if content else "other", content or b"")
     with pytest.raises(PolicyError, match=message):
         make_policy("gym4real/elevator-v0", f"ppo:{model}", gym.make("gym4real/elevator-v0"))
+
+
+def test_policy_kwargs_that_are_not_literals_or_known_classes_are_refused(tmp_path: Path) -> None:
+    marker, model = tmp_path / "marker", tmp_path / "model.zip"
+    _saved_model("sb3:a2c", "gym4real/elevator-v0", model)
+
+    def poison(data: dict[str, Any]) -> None:
+        data["policy_kwargs"][":serialized:"] = _payload(marker)
+        data["policy_kwargs"]["activation_fn"] = "<class 'os.system'>"
+
+    _rewrite_data(model, poison)
+    with pytest.raises(PolicyError, match="policy argument `activation_fn`"):
+        make_policy("gym4real/elevator-v0", f"sb3:A2C:{model}", gym.make("gym4real/elevator-v0"))
+    assert not marker.exists()
+
+
+def test_an_algorithm_sb3_does_not_ship_is_refused(tmp_path: Path) -> None:
+    model = tmp_path / "model.zip"
+    _saved_model("sb3:a2c", "gym4real/elevator-v0", model)
+    with pytest.raises(PolicyError, match="unknown Stable-Baselines3 algorithm `ars`"):
+        make_policy("gym4real/elevator-v0", f"sb3:ars:{model}", gym.make("gym4real/elevator-v0"))

@@ -64,7 +64,7 @@ def test_registration() -> None:
     reg = registry()
     ids = ("gym4real/robofeeder-picking-v0", "gym4real/robofeeder-picking-v1", "gym4real/robofeeder-planning-v0")
     assert set(ids) <= set(reg.envs)
-    assert set(reg.baselines[ids[0]]) == {"fixed", "oracle", "pretrained"}
+    assert set(reg.baselines[ids[0]]) == {"random", "fixed", "oracle", "pretrained"}
     assert set(reg.baselines[ids[2]]) == {"random", "oracle", "pretrained"}
     assert all(reg.datasets[name].sha256 for name in reg.envs[ids[2]].datasets)
     assert {(e, a, p) for (e, a, p) in reg.trainings if e in ids} == {

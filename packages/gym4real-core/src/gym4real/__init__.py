@@ -9,6 +9,8 @@ simulator imports happen only when an environment is made.
 # Must stay the first statement: lets the domain distributions' portions join this package.
 __path__ = __import__("pkgutil").extend_path(__path__, __name__)
 
+from typing import TYPE_CHECKING
+
 from gym4real.core import (
     env_info,
     list_envs,
@@ -17,7 +19,11 @@ from gym4real.core import (
     register_envs,
 )
 
-__all__ = ["benchmark", "env_info", "list_envs", "make", "plugin_errors", "register_envs"]
+if TYPE_CHECKING:  # imported lazily at run time (``__getattr__``)
+    from gym4real.core.benchmark import benchmark
+    from gym4real.core.evaluate import evaluate
+
+__all__ = ["benchmark", "env_info", "evaluate", "list_envs", "make", "plugin_errors", "register_envs"]
 
 
 def __getattr__(name: str) -> object:
@@ -25,6 +31,10 @@ def __getattr__(name: str) -> object:
         from gym4real.core.benchmark import benchmark
 
         return benchmark
+    if name == "evaluate":  # imports pandas and scipy: only on first use
+        from gym4real.core.evaluate import evaluate
+
+        return evaluate
     raise AttributeError(f"module `gym4real` has no attribute `{name}`")
 
 

@@ -1,4 +1,4 @@
-"""The ``gym4real`` command: list, info, bench, record, data, train, reproduce.
+"""The ``gym4real`` command: list, info, bench, record, data, train, reproduce, evaluate.
 
 Errors are printed as one line (``gym4real: error: ...``) with exit status 2, never a traceback
 (set ``GYM4REAL_DEBUG=1`` for one).
@@ -46,9 +46,16 @@ def _env_kwargs(pairs: Sequence[str]) -> dict[str, Any]:
     return out
 
 
+def _user_code_importable() -> None:
+    """Let ``module:attr`` policies name modules of the working folder, as ``python -m`` would."""
+    if os.getcwd() not in sys.path:
+        sys.path.insert(0, os.getcwd())
+
+
 def _cmd_bench(args: argparse.Namespace) -> None:
     from gym4real.core.benchmark import benchmark
 
+    _user_code_importable()
     episodes: int | str = int(args.episodes) if args.episodes.isdigit() else args.episodes
     policies = [p for p in args.policies.split(",") if p] if args.policies else None
     out = Path(args.out or Path("results") / args.env_id.replace("/", "_"))
@@ -181,6 +188,32 @@ def _cmd_reproduce(args: argparse.Namespace) -> None:
     print(reproduce(env_ids, args.budget, args.seeds, args.out, progress=not args.quiet, page=args.page))
 
 
+def _seed_list(text: str | None) -> list[int] | None:
+    if text is None:
+        return None
+    try:
+        return [int(s) for s in text.split(",") if s.strip()]
+    except ValueError:
+        raise Gym4RealError(f"`--seeds {text}` must be comma-separated integers (`--seeds 0,1,2`)") from None
+
+
+def _cmd_evaluate(args: argparse.Namespace) -> None:
+    from gym4real.core.evaluate import evaluate
+
+    if bool(args.envs) == args.all:
+        raise Gym4RealError("name the environments with --envs ID,ID, or pass --all (not both)")
+    _user_code_importable()
+    agents: dict[str, str] = {}
+    for policy in args.policies:
+        name, sep, ref = policy.partition("=")
+        name, ref = (name, ref) if sep and ":" not in name else (policy, policy)
+        agents[name] = ref
+    envs: str | list[str] = "all" if args.all else [e for e in args.envs.split(",") if e]
+    result = evaluate(agents, envs, seeds=_seed_list(args.seeds), references=args.references, out=args.out)
+    print(result.table())
+    print(f"score.json, CSVs, figures and report.md written to {args.out}/")
+
+
 def _cmd_dataset(args: argparse.Namespace) -> None:
     from gym4real.core.offline import collect
 
@@ -205,9 +238,11 @@ class _Versions(argparse.Action):
 
 #: What the command trusts, printed under ``--help``.
 TRUST = (
-    "Trusted: the installed gym4real plugins (Python packages you installed). Data, never run as code: configs, "
-    "presets, data files, and model files given as ppo:PATH, dqn:PATH, qlearning:PATH or sarsa:PATH (an SB3 zip "
-    "is read without unpickling anything; a pickled entry SB3 does not write for PPO/DQN is refused)."
+    "Trusted: the installed gym4real plugins (Python packages you installed), and your own code that you name as a "
+    "policy `module:attr` (it is imported and run, like a plugin). Data, never run as code: configs, presets, data "
+    "files, reference runs, and model files given as ppo:PATH, dqn:PATH, sb3:ALGO:PATH, qlearning:PATH or "
+    "sarsa:PATH (an SB3 zip is read without unpickling anything; a pickled entry SB3 does not write for its "
+    "algorithm is refused)."
 )
 
 
@@ -239,7 +274,8 @@ def _parser() -> argparse.ArgumentParser:
     bench.add_argument("env_id", help=ENV_ID_HELP)
     bench.add_argument(
         "--policies",
-        help="comma-separated baselines or kind:path models, read as data (default: the protocol's)",
+        help="comma-separated baselines, kind:path models (read as data: ppo:PATH, sb3:a2c:PATH, ...) or your own "
+        "module:attr factories (imported and run) (default: the protocol's)",
     )
     bench.add_argument("--episodes", default="test", help='"test" (the paper protocol, default) or a number')
     bench.add_argument("--seed", type=int, default=0, help="seed of the first episode when --episodes is a number")
@@ -290,6 +326,26 @@ def _parser() -> argparse.ArgumentParser:
     rep.add_argument("--out", default="results/reproduce", help="output folder; finished runs there are reused")
     rep.add_argument("--page", default=None, help="also write the results page and figures into this folder")
     rep.add_argument("--quiet", action="store_true", help="no progress bar")
+
+    ev = _command(
+        sub,
+        "evaluate",
+        "score your agent on the test protocols beside the reference runs (per env and a suite score)",
+        _cmd_evaluate,
+    )
+    ev.add_argument(
+        "policies",
+        nargs="+",
+        metavar="POLICY",
+        help="[NAME=]POLICY: your module:attr factory or policy (imported and run), sb3:ALGO:PATH (any SB3 or "
+        "sb3-contrib algorithm), ppo:PATH, ..., or a baseline; {env} and {seed} in it are replaced by the env name "
+        "and the seed",
+    )
+    ev.add_argument("--envs", help="comma-separated environment ids")
+    ev.add_argument("--all", action="store_true", help="every installed environment with a test protocol")
+    ev.add_argument("--seeds", help="training seeds, comma-separated (a factory is called as factory(env, seed=S))")
+    ev.add_argument("--references", help="folder of reference files to use instead of those the domains ship")
+    ev.add_argument("--out", default=str(Path("results") / "evaluate"), help="output folder (default results/evaluate)")
 
     dataset = sub.add_parser("dataset", help="offline-RL datasets", description="Offline-RL datasets.")
     dsub = dataset.add_subparsers(dest="dataset_command", required=True, metavar="COMMAND")

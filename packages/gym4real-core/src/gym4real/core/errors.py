@@ -44,3 +44,7 @@ class EnvUnavailableError(Gym4RealError, LookupError):
 
 class PolicyError(Gym4RealError, ValueError):
     """A policy name, model file or policy output is invalid for the environment."""
+
+
+class ReferenceMismatchError(Gym4RealError, ValueError):
+    """A domain's reference runs were measured on another protocol than the installed environment's."""

@@ -187,6 +187,9 @@ class BenchmarkSpec:
         step_unit: What one step of the protocol's env is, the x-axis label of per-step figures (``"day"``,
             ``"hour"``, ``"second"``).
         claims: The paper's claims about this comparison, checked by ``gym4real reproduce``.
+        rule_based: The rule-based baselines among ``policies`` (hand-written rules: not ``random``, not an
+            oracle reading the simulator, not a replay of recorded decisions, not a pretrained agent); the
+            best of them is 1 on the suite score's scale, ``random`` 0 (:mod:`gym4real.core.suite_score`).
     """
 
     env_id: str
@@ -199,9 +202,12 @@ class BenchmarkSpec:
     description: str = ""
     step_unit: str = "step"
     claims: tuple[Claim, ...] = ()
+    rule_based: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         _check(bool(_ENTRY.match(self.protocol)), f"protocol `{self.protocol}` is not `module:function`")
+        unlisted = sorted(set(self.rule_based) - set(self.policies))
+        _check(not unlisted, f"rule-based baselines {unlisted} of `{self.env_id}` are not among its policies")
         _check(
             self.figures is None or bool(_ENTRY.match(self.figures)),
             f"figures `{self.figures}` is not `module:function`",

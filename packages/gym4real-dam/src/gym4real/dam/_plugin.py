@@ -94,6 +94,7 @@ def gym4real_register_benchmarks() -> list[BenchmarkSpec | TrainingSpec]:
             protocol="gym4real.dam.evaluation:test_episodes",
             env_kwargs={"preset": "test"},
             policies=("random", "mean", "max", "ead", "historical"),
+            rule_based=("mean", "max", "ead"),  # `historical` steers towards the recorded levels: not a rule
             objective=("deficit", "overflow", "starving"),
             final_info=("recorded_level_rmse",),
             description="the 13 test years in file order, one one-year episode each, from 0.35 m",

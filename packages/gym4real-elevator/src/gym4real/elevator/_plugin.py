@@ -58,6 +58,7 @@ def gym4real_register_benchmarks() -> list[BenchmarkSpec | TrainingSpec]:
             protocol="gym4real.elevator.evaluation:test_episodes",
             env_kwargs={"preset": "test"},
             policies=("random", "longest_first", "shortest_first"),
+            rule_based=("longest_first", "shortest_first"),
             description="30 episodes of the seed-1234 evaluation sequence",
             step_unit="second",
             claims=(

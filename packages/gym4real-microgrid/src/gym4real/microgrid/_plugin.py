@@ -123,6 +123,7 @@ def gym4real_register_benchmarks() -> list[BenchmarkSpec | TrainingSpec]:
             protocol="gym4real.microgrid.evaluation:test_episodes",
             env_kwargs={"preset": "test"},
             policies=("random", "only_market", "battery_first", "fifty_fifty"),
+            rule_based=("only_market", "battery_first", "fifty_fifty"),
             objective=("trading", "degradation"),
             final_info=("soh",),
             description="one 2019 episode (8759 h) per test household 370..397; objective in EUR",

@@ -131,7 +131,7 @@ def gym4real_register_datasets() -> list[DatasetSpec]:
 
 @hookimpl
 def gym4real_register_baselines() -> list[BaselineSpec]:
-    """`fixed` (picking) and `random` (planning), plus an `oracle` reading the true pose everywhere."""
+    """`random` everywhere, `fixed` (picking), plus an `oracle` reading the true pose everywhere."""
     oracle = "gym4real.robofeeder.baselines:oracle"
     return [
         *(
@@ -144,6 +144,7 @@ def gym4real_register_baselines() -> list[BaselineSpec]:
                     "gym4real.robofeeder.baselines:fixed",
                     "the reference baseline: action (0, 0, 0) (crop or image centre, yaw pi/2)",
                 ),
+                BaselineSpec(env_id, "random", "gym4real.core.policies:random_policy", "uniform random grasp action"),
                 BaselineSpec(
                     env_id,
                     "oracle",
@@ -184,7 +185,8 @@ def gym4real_register_benchmarks() -> list[BenchmarkSpec | TrainingSpec]:
             env_id=env_id,
             protocol="gym4real.robofeeder.evaluation:test_episodes",
             env_kwargs={"preset": "test"},
-            policies=("fixed", "oracle"),
+            policies=("random", "fixed", "oracle"),
+            rule_based=("fixed",),  # `oracle` reads the simulator's true pose
             final_info=("objects_picked",),
             figures="gym4real.robofeeder.figures:bench_heatmap" if env_id == PICKING_V0 else None,
             description="100 seeded episodes (seeds 1000..1099), one object uniformly placed in the spawn area",

@@ -91,6 +91,7 @@ def gym4real_register_benchmarks() -> list[BenchmarkSpec | TrainingSpec]:
             protocol="gym4real.trading.evaluation:test_episodes",
             env_kwargs={"preset": "test"},
             policies=("buy_and_hold", "sell_and_hold", "flat", "random"),
+            rule_based=("buy_and_hold", "sell_and_hold", "flat"),
             objective=("pnl", "fees"),
             final_info=("cum_pnl", "cum_fees"),
             figures="gym4real.trading.evaluation:pnl_figures",

@@ -114,6 +114,7 @@ def gym4real_register_benchmarks() -> list[BenchmarkSpec | TrainingSpec]:
             protocol="gym4real.wds.evaluation:test_episodes",
             env_kwargs={"preset": "test"},
             policies=("random", "p78", "p79", "default"),
+            rule_based=("p78", "p79", "default"),
             objective=("dsr", "overflow"),
             description="test profiles 0..19 (the paper's 20 episodes); return = cumulative DSR - OVF",
             step_unit="hour",

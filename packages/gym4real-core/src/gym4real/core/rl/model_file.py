@@ -2,14 +2,18 @@
 
 SB3's ``load`` unpickles (cloudpickle) every entry of the zip's ``data`` JSON marked ``:serialized:``,
 so a crafted file runs code the moment it is loaded. gym4real reads ``data`` itself first: an entry
-that SB3 does not write for PPO or DQN is refused by name, and every entry it does write is replaced,
-through SB3's ``custom_objects``, by an object built here (the environment's spaces, SB3's own policy
-and buffer classes, constant schedules). The weights (``*.pth``) are read by SB3 with
-``torch.load(weights_only=True)``, which loads tensors only.
+that SB3 does not write for the file's algorithm (A2C, DDPG, DQN, PPO, SAC, TD3, and sb3-contrib's CrossQ,
+QRDQN, TQC, TRPO) is refused by name,
+and every entry it does write is replaced, through SB3's ``custom_objects``, by an object built here
+(the environment's spaces, SB3's own policy and buffer classes, constant schedules, and the policy's
+keyword arguments rebuilt from the text SB3 writes beside their pickle: literals, and torch's activation
+and optimizer classes and SB3's feature extractors by name). The weights (``*.pth``) are read by SB3
+with ``torch.load(weights_only=True)``, which loads tensors only.
 """
 
 from __future__ import annotations
 
+import ast
 import json
 import zipfile
 from collections.abc import Callable
@@ -28,26 +32,60 @@ TRAINING_STATE = frozenset(
     {"_last_obs", "_last_episode_starts", "_last_original_obs", "ep_info_buffer", "ep_success_buffer"}
 )
 
-#: Settings SB3 pickles when they are schedules rather than numbers (a learning-rate schedule of a preset).
-SCHEDULES = frozenset({"learning_rate", "lr_schedule"})
-
-#: The pickled entries SB3 writes for each algorithm; anything else pickled is refused.
-SERIALIZED_ENTRIES: dict[str, frozenset[str]] = {
-    "ppo": TRAINING_STATE
-    | SCHEDULES
-    | {"policy_class", "observation_space", "action_space", "rollout_buffer_class", "clip_range", "clip_range_vf"},
-    "dqn": TRAINING_STATE
-    | SCHEDULES
-    | {"policy_class", "observation_space", "action_space", "replay_buffer_class", "train_freq"}
-    | {"exploration_schedule"},
+#: Pickled entries SB3 writes for every algorithm (``policy_kwargs`` when they hold a class, as A2C's optimizer;
+#: ``learning_rate`` when it is a schedule, as a preset's cosine or KL-adaptive rate).
+_COMMON = TRAINING_STATE | {
+    "policy_class",
+    "observation_space",
+    "action_space",
+    "lr_schedule",
+    "learning_rate",
+    "policy_kwargs",
 }
+_ON_POLICY = _COMMON | {"rollout_buffer_class"}
+_OFF_POLICY = _COMMON | {"replay_buffer_class", "train_freq", "action_noise"}
+
+#: The pickled entries SB3 and sb3-contrib write for each algorithm; anything else pickled is refused.
+SERIALIZED_ENTRIES: dict[str, frozenset[str]] = {
+    "a2c": _ON_POLICY,
+    "ppo": _ON_POLICY | {"clip_range", "clip_range_vf"},
+    "dqn": _OFF_POLICY | {"exploration_schedule"},
+    "sac": _OFF_POLICY,
+    "td3": _OFF_POLICY,
+    "ddpg": _OFF_POLICY,
+    "qrdqn": _OFF_POLICY | {"exploration_schedule"},
+    "tqc": _OFF_POLICY | {"target_entropy"},
+    "trpo": _ON_POLICY,
+    "crossq": _OFF_POLICY,
+}
+
+#: Algorithm key -> ``module:Class`` (sb3-contrib's where it is installed; its recurrent and maskable
+#: PPO and ARS are left out: their policies need state or action masks that a plain policy call lacks).
+SB3_ALGOS = {
+    "a2c": "stable_baselines3:A2C",
+    "ddpg": "stable_baselines3:DDPG",
+    "dqn": "stable_baselines3:DQN",
+    "ppo": "stable_baselines3:PPO",
+    "sac": "stable_baselines3:SAC",
+    "td3": "stable_baselines3:TD3",
+    "crossq": "sb3_contrib:CrossQ",
+    "qrdqn": "sb3_contrib:QRDQN",
+    "tqc": "sb3_contrib:TQC",
+    "trpo": "sb3_contrib:TRPO",
+}
+
+
+def algo_name(algo: str) -> str:
+    """The class name of an algorithm key (``qrdqn`` -> ``QRDQN``)."""
+    return SB3_ALGOS[algo].partition(":")[2]
+
 
 #: Buffer classes of SB3 that a model file may name (only used to rebuild the algorithm object).
 BUFFERS = ("RolloutBuffer", "DictRolloutBuffer", "ReplayBuffer", "DictReplayBuffer", "NStepReplayBuffer")
 
 TRUST_NOTE = (
     "a model file is data: gym4real never unpickles it, and loads only the weights and the settings "
-    "that Stable-Baselines3 writes for PPO and DQN"
+    f"that Stable-Baselines3 and sb3-contrib write for {', '.join(algo_name(a) for a in SB3_ALGOS)}"
 )
 
 
@@ -139,6 +177,53 @@ def _buffer_class(path: Path, saved: Any) -> type:
     raise PolicyError(f"model `{path}`: its buffer class ({init or 'unnamed'}) is not one of SB3's {list(BUFFERS)}")
 
 
+def _named_classes() -> dict[str, type]:
+    """``str(cls)`` -> cls for the classes a policy's keyword arguments may name.
+
+    Those are torch's activation modules and optimizers and SB3's feature extractors.
+    """
+    import torch
+    from stable_baselines3.common import torch_layers
+
+    found: dict[str, type] = {}
+    for module, base in (
+        (torch.nn.modules.activation, torch.nn.Module),
+        (torch.optim, torch.optim.Optimizer),
+        (torch_layers, torch_layers.BaseFeaturesExtractor),
+    ):
+        for value in vars(module).values():
+            if isinstance(value, type) and issubclass(value, base):
+                found[str(value)] = value
+    return found
+
+
+def _policy_kwargs(path: Path, saved: Any) -> dict[str, Any]:
+    """The policy's keyword arguments, rebuilt from the text SB3 writes beside their pickle.
+
+    Raises:
+        PolicyError: A value that is neither a literal nor a class named in :func:`_named_classes`.
+    """
+    described = saved if isinstance(saved, dict) else {}
+    classes = _named_classes()
+    kwargs: dict[str, Any] = {}
+    for key, value in described.items():
+        if key.startswith(":"):
+            continue
+        if not isinstance(value, str):  # SB3 wrote it as JSON
+            kwargs[key] = value
+        elif value in classes:
+            kwargs[key] = classes[value]
+        else:
+            try:
+                kwargs[key] = ast.literal_eval(value)
+            except (ValueError, SyntaxError):
+                raise PolicyError(
+                    f"model `{path}`: its policy argument `{key}` ({value[:80]}) is neither a literal nor a torch "
+                    f"activation, optimizer or SB3 feature extractor class; it was not loaded ({TRUST_NOTE})"
+                ) from None
+    return kwargs
+
+
 def custom_objects(
     path: Path, algo: str, algo_cls: Any, observation_space: gym.Space[Any], action_space: gym.Space[Any]
 ) -> dict[str, Any]:
@@ -146,7 +231,7 @@ def custom_objects(
 
     Args:
         path: The model zip.
-        algo: ``ppo`` or ``dqn`` (the ``kind:`` of the policy string).
+        algo: A key of :data:`SERIALIZED_ENTRIES` (``a2c``, ``ppo``, ...).
         algo_cls: The SB3 algorithm class.
         observation_space: The space the model must have been trained on.
         action_space: Likewise for actions (``[-1, 1]`` for a rescaled Box).
@@ -164,11 +249,11 @@ def custom_objects(
     if refused:
         raise PolicyError(
             f"model `{path}` holds pickled entr{'y' if len(refused) == 1 else 'ies'} "
-            f"{', '.join(f'`{k}`' for k in refused)} that Stable-Baselines3 does not write for {algo.upper()}; "
-            f"it was not loaded ({TRUST_NOTE}). Use a model trained by `gym4real train`"
+            f"{', '.join(f'`{k}`' for k in refused)} that Stable-Baselines3 does not write for {algo_name(algo)}; "
+            f"it was not loaded ({TRUST_NOTE}). Save the model with Stable-Baselines3's own `save`"
         )
     if "policy_class" not in data or "observation_space" not in data or "action_space" not in data:
-        raise PolicyError(f"model `{path}` is not a {algo.upper()} model file: it names no policy class or spaces")
+        raise PolicyError(f"model `{path}` is not a {algo_name(algo)} model file: it names no policy class or spaces")
     _check_space(path, "observation_space", data["observation_space"], observation_space)
     _check_space(path, "action_space", data["action_space"], action_space)
     constant: Callable[[float], float] = ConstantSchedule(0.0)
@@ -182,12 +267,16 @@ def custom_objects(
         "clip_range_vf": None,
         "exploration_schedule": constant,
         "train_freq": TrainFreq(1, TrainFrequencyUnit.STEP),
+        "action_noise": None,  # exploration noise of training; a deterministic policy never draws it
+        "target_entropy": 0.0,  # TQC's entropy target, a training setting that acting never reads
         **dict.fromkeys(TRAINING_STATE),
     }
+    if "policy_kwargs" in pickled:
+        replacements["policy_kwargs"] = _policy_kwargs(path, data["policy_kwargs"])
     for key in ("rollout_buffer_class", "replay_buffer_class"):
         if key in pickled:
             replacements[key] = _buffer_class(path, data[key])
     objects = {k: replacements[k] for k in pickled}
-    if algo == "dqn":  # inference only: no need for the file's (up to 1M-transition) replay buffer
+    if "replay_buffer_class" in pickled:  # inference only: no need for the file's (up to 1M-transition) buffer
         objects["buffer_size"] = 1
     return objects

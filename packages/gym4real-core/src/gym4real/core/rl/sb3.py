@@ -110,17 +110,26 @@ class NormalizedPolicy:
 def load_model(env: gym.Env[Any, Any], path: str | Path, algo: str) -> NormalizedPolicy:
     """Load ``model.zip`` (and ``normalize.npz`` beside it) of ``algo`` as a policy for ``env``.
 
+    ``algo`` is any algorithm Stable-Baselines3 ships (``a2c``, ``ddpg``, ``dqn``, ``ppo``, ``sac``, ``td3``)
+    or sb3-contrib's ``crossq``, ``qrdqn``, ``tqc``, ``trpo``.
+
     The file is read as data (:mod:`gym4real.core.rl.model_file`): no entry of it is unpickled.
 
     Raises:
-        PolicyError: Not an SB3 model of ``algo``, a pickled entry SB3 does not write (named), or a model
-            trained on other observation/action spaces.
+        PolicyError: An algorithm SB3 does not ship, not an SB3 model of ``algo``, a pickled entry SB3 does not
+            write (named), or a model trained on other observation/action spaces.
     """
-    from gym4real.core.rl.model_file import custom_objects
+    from gym4real.core.policies import load_object
+    from gym4real.core.rl.model_file import SB3_ALGOS, algo_name, custom_objects
 
-    sb3 = _sb3()
+    if algo not in SB3_ALGOS:
+        raise PolicyError(f"unknown Stable-Baselines3 algorithm `{algo}`; expected one of {sorted(SB3_ALGOS)}")
+    _sb3()
     path = Path(path)
-    algo_cls = getattr(sb3, ALGOS[algo])
+    try:
+        algo_cls = load_object(SB3_ALGOS[algo])
+    except ImportError as exc:
+        raise PolicyError(f"{algo_name(algo)} models need sb3-contrib: `pip install sb3-contrib`") from exc
     expected_actions = env.action_space
     if rescaled(env.action_space):
         expected_actions = gym.spaces.Box(-1.0, 1.0, env.action_space.shape, env.action_space.dtype)  # type: ignore[arg-type]
@@ -128,7 +137,7 @@ def load_model(env: gym.Env[Any, Any], path: str | Path, algo: str) -> Normalize
     try:
         model = algo_cls.load(path, device="cpu", custom_objects=objects)
     except Exception as exc:  # a zip that passed the data check but whose weights do not fit
-        raise PolicyError(f"`{path}` is not a loadable {algo.upper()} model for this environment: {exc}") from exc
+        raise PolicyError(f"`{path}` is not a loadable {algo_name(algo)} model for this environment: {exc}") from exc
     stats_path = path.with_name("normalize.npz")
     stats = dict(np.load(stats_path, allow_pickle=False)) if stats_path.exists() else None
     return NormalizedPolicy(model, stats, env.action_space)

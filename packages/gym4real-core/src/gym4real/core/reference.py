@@ -1,0 +1,229 @@
+"""Reference runs: the paper agents' and baselines' per-episode test scores, shipped with each domain.
+
+A domain distribution ships, for an environment ``gym4real/<name>``, two package-data files:
+
+- ``gym4real/<domain>/reference/<name>.csv``: one row per policy, training seed and test episode, with
+  the columns ``policy, seed, episode, objective, return`` and the reward components; ``seed`` is empty
+  for a baseline (a rule-based policy has no training seed);
+- ``gym4real/<domain>/reference/<name>.json``: the budget, the manifest of the run that measured them,
+  and the fingerprint of the protocol they were measured on (:func:`fingerprint`: the environment's
+  distribution and version, fidelity, ``make()`` arguments, test episodes and objective).
+
+:func:`export_reference` writes them from a results folder of ``gym4real reproduce``
+(``<name>-<budget>/episodes.csv`` and ``manifest.json``; ``scripts/export_references.py``);
+:func:`load_reference` reads them, and :func:`check_fingerprint` refuses reference runs measured on
+another protocol than the installed environment's, naming each difference.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pandas as pd
+
+from gym4real.core.benchmark import protocol
+from gym4real.core.errors import ConfigError, ReferenceMismatchError
+from gym4real.core.policies import load_object
+from gym4real.core.registry import env_spec, registry
+from gym4real.core.rl.plan import slug
+
+#: Folder of the reference files inside a domain package.
+FOLDER = "reference"
+#: Columns every reference CSV has (then the reward components).
+COLUMNS = ("policy", "seed", "episode", "objective", "return")
+#: Fingerprint fields, in the order differences are named.
+FINGERPRINT_FIELDS = (
+    "env_id",
+    "distribution",
+    "version",
+    "fidelity",
+    "env_kwargs",
+    "episodes",
+    "episodes_sha256",
+    "objective",
+)
+
+
+@dataclass(frozen=True)
+class Reference:
+    """The reference runs of one environment.
+
+    Attributes:
+        env_id: The environment.
+        scores: Policy -> per-episode objective, ``(seeds, episodes)`` (one row for a baseline).
+        seeds: Policy -> its training seeds (empty for a baseline).
+        fingerprint: The protocol the scores were measured on (:func:`fingerprint`).
+        budget: The ``gym4real reproduce`` budget of the runs (``paper``).
+        manifest: The manifest of the run that measured them.
+        source: Where the files were read from.
+    """
+
+    env_id: str
+    scores: dict[str, np.ndarray]
+    seeds: dict[str, list[int]]
+    fingerprint: dict[str, Any]
+    budget: str = "paper"
+    manifest: dict[str, Any] = field(default_factory=dict)
+    source: str = ""
+
+    @property
+    def agents(self) -> list[str]:
+        """The trained agents (policies with training seeds)."""
+        return [name for name, seeds in self.seeds.items() if seeds]
+
+
+def fingerprint(env_id: str, env: gym.Env[Any, Any]) -> dict[str, Any]:
+    """The protocol an environment's test scores are measured on, as installed.
+
+    Args:
+        env_id: A registered id with an evaluation protocol.
+        env: The environment made with the protocol's ``make()`` arguments (its config gives the fidelity).
+    """
+    spec = protocol(env_id)
+    kwargs = json.loads(json.dumps(dict(spec.env_kwargs), default=str))
+    episodes = load_object(spec.protocol)(dict(spec.env_kwargs))
+    listing = json.dumps([{"seed": e.get("seed"), "options": e.get("options")} for e in episodes], default=str)
+    dist, version = registry().distributions.get(registry().owners.get(env_id, ""), ("?", "?"))
+    return {
+        "env_id": env_id,
+        "distribution": dist,
+        "version": version,
+        "fidelity": getattr(getattr(env.unwrapped, "config", None), "fidelity", None),
+        "env_kwargs": kwargs,
+        "episodes": len(episodes),
+        "episodes_sha256": hashlib.sha256(listing.encode()).hexdigest(),
+        "objective": list(spec.objective) or ["return"],
+    }
+
+
+def check_fingerprint(reference: Reference, installed: dict[str, Any]) -> None:
+    """Refuse reference runs measured on another protocol than ``installed``'s.
+
+    Raises:
+        ReferenceMismatchError: Naming each field that differs, with both values.
+    """
+    differences = [
+        f"{key}: {reference.fingerprint.get(key)!r} in the reference, {installed.get(key)!r} installed"
+        for key in FINGERPRINT_FIELDS
+        if reference.fingerprint.get(key) != installed.get(key)
+    ]
+    if differences:
+        raise ReferenceMismatchError(
+            f"the reference runs of `{reference.env_id}` ({reference.source}) were measured on another protocol "
+            f"than the installed environment's ({'; '.join(differences)}): install the version they were measured "
+            "on, or compare with reference runs of this version (`--references DIR`, written by "
+            "`scripts/export_references.py` from `gym4real reproduce` results)"
+        )
+
+
+def read_scores(frame: pd.DataFrame, source: str) -> tuple[dict[str, np.ndarray], dict[str, list[int]]]:
+    """Score matrices ``(seeds, episodes)`` and training seeds per policy from a reference table.
+
+    Raises:
+        ConfigError: A missing column, a non-finite objective, or a policy without the same test episodes
+            ``0..E-1`` for every seed (named).
+    """
+    missing = [c for c in COLUMNS if c not in frame.columns]
+    if missing:
+        raise ConfigError(f"`{source}` has no column {missing}; a reference table has the columns {list(COLUMNS)}")
+    objective = pd.to_numeric(frame["objective"], errors="coerce")
+    if not np.all(np.isfinite(objective)):
+        raise ConfigError(f"`{source}`: the column `objective` holds a missing or non-finite value")
+    frame = frame.assign(objective=objective.astype(float))
+    episodes = sorted(set(frame["episode"].astype(int)))
+    scores: dict[str, np.ndarray] = {}
+    seeds: dict[str, list[int]] = {}
+    for policy, rows in frame.groupby("policy", sort=False):
+        trained = bool(rows["seed"].notna().all())
+        if rows["seed"].notna().any() and not trained:
+            raise ConfigError(f"`{source}`: policy `{policy}` has rows with and without a seed; give every row one")
+        keyed = rows.assign(seed=rows["seed"].astype(int) if trained else 0, episode=rows["episode"].astype(int))
+        complete = keyed.groupby("seed")["episode"].agg(lambda e: sorted(e) == episodes).all()
+        if keyed.duplicated(["seed", "episode"]).any() or not complete:
+            raise ConfigError(
+                f"`{source}`: policy `{policy}` does not have one row per seed and test episode {episodes[0]}.."
+                f"{episodes[-1]}; write the table with every seed's every episode"
+            )
+        matrix = keyed.pivot(index="seed", columns="episode", values="objective")
+        scores[str(policy)] = matrix.to_numpy(dtype=float)
+        seeds[str(policy)] = [int(s) for s in matrix.index] if trained else []
+    return scores, seeds
+
+
+def domain_package(env_id: str) -> str:
+    """The package of an environment's domain (``gym4real.dam``), where its reference files live."""
+    return ".".join(env_spec(env_id).entry_point.split(":")[0].split(".")[:2])
+
+
+def load_reference(env_id: str, folder: str | Path | None = None) -> Reference | None:
+    """The reference runs of ``env_id``, from its domain package or from ``folder``; None when there are none.
+
+    Args:
+        env_id: A registered id.
+        folder: A folder holding ``<name>.csv`` and ``<name>.json`` (default: the domain's ``reference/``).
+    """
+    base = Path(folder) if folder is not None else resources.files(domain_package(env_id)) / FOLDER
+    table, record = base / f"{slug(env_id)}.csv", base / f"{slug(env_id)}.json"
+    if not table.is_file():
+        return None
+    if not record.is_file():
+        raise ConfigError(f"`{table}` has no `{record.name}` beside it (the fingerprint of its protocol)")
+    with table.open() as handle:
+        scores, seeds = read_scores(pd.read_csv(handle), str(table))
+    meta = json.loads(record.read_text())
+    return Reference(
+        env_id,
+        scores,
+        seeds,
+        meta["fingerprint"],
+        meta.get("budget", "paper"),
+        meta.get("manifest", {}),
+        str(table),
+    )
+
+
+def export_reference(env_id: str, results: str | Path, budget: str = "paper", into: str | Path | None = None) -> Path:
+    """Write the reference files of ``env_id`` from a results folder of ``gym4real reproduce``.
+
+    Reads ``results/<name>-<budget>/episodes.csv`` (and ``manifest.json`` beside it, if any), checks the
+    table, takes the fingerprint of the installed environment (whose test episodes the table must
+    have), and writes ``<name>.csv`` and ``<name>.json`` into ``into`` (default: the domain package's
+    ``reference/`` folder, the source tree in an editable checkout). Returns the CSV's path.
+
+    Raises:
+        ConfigError: No such table, a malformed one, or one with another number of test episodes.
+    """
+    folder = Path(results) / f"{slug(env_id)}-{budget}"
+    table = folder / "episodes.csv"
+    if not table.is_file():
+        raise ConfigError(f"no `{table}`: run `gym4real reproduce {env_id} --budget {budget}` into `{results}` first")
+    frame = pd.read_csv(table)
+    scores, _ = read_scores(frame, str(table))
+    spec = protocol(env_id)
+    env = gym.make(env_id, **spec.env_kwargs)
+    try:
+        installed = fingerprint(env_id, env)
+    finally:
+        env.close()
+    found = {m.shape[1] for m in scores.values()}
+    if found != {installed["episodes"]}:
+        raise ConfigError(
+            f"`{table}` has {sorted(found)} test episodes per seed; the installed protocol of `{env_id}` has "
+            f"{installed['episodes']}: rerun `gym4real reproduce` with this version"
+        )
+    manifest_path = folder / "manifest.json"
+    manifest = json.loads(manifest_path.read_text()) if manifest_path.is_file() else {}
+    target = Path(into) if into is not None else Path(str(resources.files(domain_package(env_id)))) / FOLDER
+    target.mkdir(parents=True, exist_ok=True)
+    written = target / f"{slug(env_id)}.csv"
+    frame.to_csv(written, index=False)
+    record = {"env_id": env_id, "budget": budget, "fingerprint": installed, "manifest": manifest}
+    (target / f"{slug(env_id)}.json").write_text(json.dumps(record, indent=1) + "\n")
+    return written

@@ -1,0 +1,183 @@
+"""``gym4real evaluate``: your agent on the test protocols beside reference runs, and the suite score (issue 24).
+
+The reference runs here are built from a real run of elevator's baselines plus a synthetic two-seed agent,
+written in the layout ``gym4real reproduce`` gives the results page and exported as a domain would ship them.
+"""
+
+from __future__ import annotations
+
+import json
+import textwrap
+from collections.abc import Callable
+from pathlib import Path
+from types import ModuleType
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy import stats as sps
+
+import gym4real
+from gym4real.core.cli import main
+from gym4real.core.errors import ConfigError, PolicyError, ReferenceMismatchError
+from gym4real.core.reference import load_reference, read_scores
+
+ENV = "gym4real/elevator-v0"
+
+
+@pytest.fixture(scope="module")
+def references(tmp_path_factory: pytest.TempPathFactory, load_script: Callable[[Path], ModuleType]) -> Path:
+    """Reference files of elevator: its three baselines as run now, and `qlearning`, two synthetic seeds."""
+    root = tmp_path_factory.mktemp("refs")
+    result = gym4real.benchmark(ENV, ["random", "longest_first", "shortest_first"], episodes="test")
+    rows = []
+    for name in result.returns:
+        for i, (objective, ret) in enumerate(zip(result.objective_values(name), result.returns[name], strict=True)):
+            rows.append({"policy": name, "seed": None, "episode": i, "objective": objective, "return": ret})
+    best = np.asarray(result.objective_values("longest_first"))
+    for seed, shift in ((0, -500.0), (1, 300.0)):
+        for i, value in enumerate(best + shift):
+            rows.append({"policy": "qlearning", "seed": seed, "episode": i, "objective": value, "return": value})
+    folder = root / "results" / "elevator-v0-paper"
+    folder.mkdir(parents=True)
+    pd.DataFrame(rows).to_csv(folder / "episodes.csv", index=False)
+    (folder / "manifest.json").write_text(json.dumps({"command": "gym4real reproduce --budget paper"}))
+    export = load_script(Path(__file__).resolve().parents[1] / "scripts" / "export_references.py")
+    assert export.main([str(root / "results"), "--into", str(root / "reference")]) == 0  # finds elevator's table
+    return root / "reference"
+
+
+def test_the_best_rule_scores_exactly_one_random_zero_and_itself_one_half(references: Path) -> None:
+    evaluation = gym4real.evaluate({"same": "longest_first", "rnd": "random"}, [ENV], references=references)
+    score = evaluation.score()
+    same, rnd = score["agents"]["same"], score["agents"]["rnd"]
+    assert same["aggregate"]["iqm"] == 1.0 and same["envs"][ENV]["normalized_iqm"] == 1.0
+    assert rnd["aggregate"]["iqm"] == 0.0 and rnd["envs"][ENV]["normalized_iqm"] == 0.0
+    assert same["aggregate"]["optimality_gap"] == 0.0 and rnd["aggregate"]["optimality_gap"] == 1.0
+    assert same["envs"][ENV]["probability_of_improvement"]["longest_first"] == 0.5
+    assert set(same["envs"][ENV]["probability_of_improvement"]) == {"qlearning", "longest_first"}
+    # the reference agent's own suite score: IQM over its seeds of each seed's normalised IQM
+    ref = load_reference(ENV, references)
+    assert ref is not None
+    low, top = (
+        sps.trim_mean(ref.scores["random"], 0.25, axis=None),
+        sps.trim_mean(ref.scores["longest_first"], 0.25, axis=None),
+    )
+    per_seed = (sps.trim_mean(ref.scores["qlearning"], 0.25, axis=1) - low) / (top - low)
+    assert score["references"]["qlearning"]["iqm"] == pytest.approx(sps.trim_mean(per_seed, 0.25))
+    table = evaluation.table()
+    assert "qlearning                reference" in table and f"reference runs: paper budget, {ref.source}" in table
+
+
+def test_without_agents_only_the_reference_agents_are_scored(references: Path) -> None:
+    score = gym4real.evaluate({}, [ENV], references=references).score()
+    assert score["agents"] == {} and list(score["references"]) == ["qlearning"]
+    assert score["references"]["qlearning"]["runs"] == 2  # its two seeds
+
+
+def test_a_changed_env_version_is_refused(references: Path, tmp_path: Path) -> None:
+    changed = tmp_path / "reference"
+    changed.mkdir()
+    (changed / "elevator-v0.csv").write_bytes((references / "elevator-v0.csv").read_bytes())
+    record = json.loads((references / "elevator-v0.json").read_text())
+    assert record["budget"] == "paper" and record["manifest"] == {"command": "gym4real reproduce --budget paper"}
+    assert record["fingerprint"]["episodes"] == 30 and record["fingerprint"]["fidelity"] == "corrected"
+    installed = record["fingerprint"]["version"]
+    record["fingerprint"]["version"] = "0.0.1"
+    (changed / "elevator-v0.json").write_text(json.dumps(record))
+    with pytest.raises(ReferenceMismatchError, match=f"version: '0.0.1' in the reference, '{installed}' installed"):
+        gym4real.evaluate({"mine": "longest_first"}, [ENV], references=changed)
+
+
+def test_a_user_module_factory_per_seed_from_the_cli_without_shipped_references(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    (tmp_path / "my_agents.py").write_text(
+        textwrap.dedent(
+            """
+            from gym4real.elevator.baselines import longest_first, shortest_first
+
+            SEEDS = []
+
+            def make_policy(env, seed):
+                SEEDS.append(seed)
+                return longest_first(env) if seed == 0 else shortest_first(env)
+            """
+        )
+    )
+    monkeypatch.chdir(tmp_path)  # the module is found in the working folder, as the CLI promises
+    monkeypatch.syspath_prepend(str(tmp_path))
+    out = tmp_path / "out"
+    status = main(["evaluate", "mine=my_agents:make_policy", "--envs", ENV, "--seeds", "0,7", "--out", str(out)])
+    assert status == 0
+    import my_agents  # type: ignore[import-not-found]
+
+    assert my_agents.SEEDS == [0, 7]
+    printed = capsys.readouterr().out
+    assert "none shipped with gym4real-elevator" in printed  # elevator ships no reference runs yet
+    score = json.loads((out / "score.json").read_text())
+    assert score["envs"][ENV]["seeds"] == 2 and score["aggregate"]["runs"] == 2
+    assert score["scales"][ENV]["best_rule_based"] == "longest_first"
+    # seed 0 is the best rule (1), seed 7 the other rule (below 1): the optimality gap is seed 7's shortfall / 2
+    runs = pd.read_csv(out / "episodes.csv")
+    mine = runs[runs["policy"] == "mine"]
+    assert set(mine["seed"]) == {0, 7} and len(mine) == 2 * 30
+    shortfall = 1 - sps.trim_mean(mine[mine["seed"] == 7]["normalized"], 0.25)
+    assert score["aggregate"]["optimality_gap"] == pytest.approx(shortfall / 2)
+    assert {"aggregate_intervals.png", "performance_profile.png", "report.md", "agent_episodes.csv"} <= {
+        p.name for p in out.iterdir()
+    }
+    assert "| `mine` | agent | 1 | 2 |" in (out / "report.md").read_text()
+
+
+def test_a_seed_asked_of_a_single_model_or_policy_object_is_refused(references: Path) -> None:
+    with pytest.raises(ConfigError, match="names no `\\{seed\\}`"):
+        gym4real.evaluate({"m": "sb3:a2c:model.zip"}, [ENV], seeds=[0, 1], references=references)
+    with pytest.raises(PolicyError, match="takes no `seed`"):
+        gym4real.evaluate({"m": lambda obs: 0}, [ENV], seeds=[0, 1], references=references)
+
+
+@pytest.mark.parametrize(
+    ("rows", "message"),
+    [
+        ([{"policy": "a", "seed": 0, "episode": 0, "objective": 1.0}], "no column"),
+        (
+            [
+                {"policy": "a", "seed": 0, "episode": 0, "objective": 1.0, "return": 1.0},
+                {"policy": "a", "seed": 1, "episode": 1, "objective": 1.0, "return": 1.0},
+            ],
+            "one row per seed and test episode",
+        ),
+        ([{"policy": "a", "seed": None, "episode": 0, "objective": float("nan"), "return": 1.0}], "non-finite"),
+    ],
+)
+def test_a_malformed_reference_table_is_refused(rows: list[dict[str, object]], message: str) -> None:
+    with pytest.raises(ConfigError, match=message):
+        read_scores(pd.DataFrame(rows), "ref.csv")
+
+
+def test_the_tutorial_trains_a2c_on_two_envs_and_reads_its_score(
+    tmp_path: Path, load_script: Callable[[Path], ModuleType]
+) -> None:
+    pytest.importorskip("stable_baselines3")
+    tutorial = load_script(Path(__file__).resolve().parents[1] / "examples" / "evaluate_a2c.py")
+    score = tutorial.main(["--steps", "300", "--seeds", "0", "--out", str(tmp_path)])
+    aggregate = score["aggregate"]
+    assert aggregate["envs"] == list(tutorial.TRAINING) and aggregate["runs"] == 2
+    assert aggregate["low"] <= aggregate["iqm"] <= aggregate["high"] and np.isfinite(aggregate["optimality_gap"])
+    for env_id in tutorial.TRAINING:
+        assert score["envs"][env_id]["seeds"] == 1 and (tmp_path / "models" / env_id.split("/")[1] / "seed0").is_dir()
+    assert json.loads((tmp_path / "score" / "score.json").read_text())["aggregate"] == aggregate
+
+
+def test_bench_runs_a_user_module_factory_and_names_a_module_it_cannot_import(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    (tmp_path / "bench_agents.py").write_text("def always_up(env):\n    return lambda obs: 1\n")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    args = ["bench", ENV, "--episodes", "1", "--quiet", "--out", str(tmp_path / "out")]
+    assert main([*args, "--policies", "bench_agents:always_up"]) == 0
+    assert "bench_agents:always_up" in pd.read_csv(tmp_path / "out" / "summary.csv")["policy"].tolist()
+    assert main([*args, "--policies", "no_such_module:factory"]) == 2
+    assert "cannot import `no_such_module:factory`" in capsys.readouterr().err
