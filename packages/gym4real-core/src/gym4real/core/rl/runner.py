@@ -3,17 +3,50 @@
 A run whose folder already holds a finished run of the same settings is reused; an unfinished one resumes
 from its last checkpoint (:func:`gym4real.core.rl.train.train`). A run that fails is reported with its
 error and does not stop the others.
+
+:func:`train_plan` runs the plan here, one run at a time, or ``jobs`` runs at a time, each in a worker
+process of its own (started with ``spawn``, its numerical libraries limited to one thread each, so that
+``jobs`` workers on ``jobs`` cores do not oversubscribe them). A worker that dies (killed, out of memory)
+loses the work since its run's last checkpoint: the run starts again from that checkpoint, up to
+:data:`MAX_RETRIES` times. Every run is seeded and independent of the others, so the results do not depend
+on ``jobs`` or on the order the runs finish in. :mod:`gym4real.core.rl.cluster` runs a plan on Ray.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import multiprocessing
+import os
+import queue
+import signal
+import time
+from collections import deque
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
+from typing import Any
 
 from gym4real.core.errors import Gym4RealError
-from gym4real.core.rl.plan import Item
-from gym4real.core.rl.progress import PlanProgress
+from gym4real.core.rl.plan import Item, slug
+from gym4real.core.rl.progress import PlanProgress, Progress
 from gym4real.core.rl.train import TrainingRun, finished_run, train
+
+#: Environment variables that limit a worker's numerical libraries to one thread; a worker process
+#: gets them at its start, before it imports numpy, torch or numba.
+THREAD_LIMITS = {
+    name: "1"
+    for name in (
+        "OMP_NUM_THREADS",
+        "MKL_NUM_THREADS",
+        "OPENBLAS_NUM_THREADS",
+        "NUMEXPR_NUM_THREADS",
+        "VECLIB_MAXIMUM_THREADS",
+        "NUMBA_NUM_THREADS",
+    )
+}
+#: How many times a run whose worker died starts again from its last checkpoint.
+MAX_RETRIES = 2
+#: A worker reports its run's progress at most this often (seconds).
+REPORT_EVERY_S = 0.5
 
 
 @dataclass(frozen=True)
@@ -31,27 +64,153 @@ def describe_error(exc: BaseException) -> str:
     return name + " ".join(str(exc).split())
 
 
-def run_item(item: Item, progress: PlanProgress | None = None) -> TrainingRun:
+def describe_item(item: Item) -> str:
+    """``dam-v0 ppo seed 3``."""
+    return f"{slug(item.env_id)} {item.algo} seed {item.seed}"
+
+
+def available_cpus() -> int:
+    """The cores this process may run on (``--jobs auto``)."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
+
+
+def run_item(item: Item, progress: Progress | None = None) -> TrainingRun:
     """Train one run of a plan, or reuse the finished run in its folder."""
     run = finished_run(item.folder, item.env_id, item.algo, item.preset, item.seed)
     if run is not None:
         return run
-
-    def on_progress(done: int, total: int) -> None:
-        if progress is not None:
-            progress.item(item.env_id, done, total)
-
-    return train(item.env_id, item.algo, item.preset, item.seed, item.folder, on_progress)
+    return train(item.env_id, item.algo, item.preset, item.seed, item.folder, progress or False)
 
 
-def train_plan(items: Sequence[Item], progress: PlanProgress | None = None) -> list[Outcome]:
-    """Run every item of a plan here, one at a time, in order; one :class:`Outcome` per item."""
+def train_plan(items: Sequence[Item], progress: PlanProgress | None = None, jobs: int = 1) -> list[Outcome]:
+    """Run every item of a plan on this machine; one :class:`Outcome` per item, in the plan's order.
+
+    Args:
+        items: The plan.
+        progress: The plan's progress bar; each item's progress is reported under its index.
+        jobs: Runs at a time: 1 runs them here, in order; more run each in a worker process.
+    """
+    if jobs < 1:
+        raise Gym4RealError(f"--jobs must be at least 1 (or `auto`), not {jobs}")
+    if jobs > 1 and len(items) > 1:
+        return _train_in_workers(items, progress, jobs)
     outcomes = []
-    for item in items:
+    for key, item in enumerate(items):
+
+        def report(done: int, total: int, key: int = key, env_id: str = item.env_id) -> None:
+            if progress is not None:
+                progress.item(env_id, done, total, key)
+
         try:
-            outcomes.append(Outcome(item, run_item(item, progress)))
+            outcomes.append(Outcome(item, run_item(item, report)))
         except Exception as exc:  # one run's failure (missing data, a bug) must not stop the others
             outcomes.append(Outcome(item, None, describe_error(exc)))
         if progress is not None:
-            progress.close_item()
+            progress.close_item(key)
     return outcomes
+
+
+@contextmanager
+def thread_limits() -> Iterator[None]:
+    """:data:`THREAD_LIMITS` in ``os.environ`` while worker processes start (they inherit it)."""
+    saved = {name: os.environ.get(name) for name in THREAD_LIMITS}
+    os.environ.update(THREAD_LIMITS)
+    try:
+        yield
+    finally:
+        for name, value in saved.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
+
+
+def _work(key: int, item: Item, messages: Any) -> None:
+    """A worker process: one run of the plan; its progress and outcome go to the parent as messages."""
+    last = 0.0
+
+    def report(done: int, total: int) -> None:
+        nonlocal last
+        now = time.monotonic()
+        if now - last >= REPORT_EVERY_S or done >= total:
+            last = now
+            messages.put(("progress", key, done, total))
+
+    try:
+        messages.put(("done", key, Outcome(item, run_item(item, report))))
+    except Exception as exc:  # reported to the parent, which goes on with the other runs
+        messages.put(("done", key, Outcome(item, None, describe_error(exc))))
+
+
+def _death(exitcode: int | None) -> str:
+    if exitcode is not None and exitcode < 0:
+        try:
+            return f"killed by {signal.Signals(-exitcode).name}"
+        except ValueError:
+            return f"killed by signal {-exitcode}"
+    return f"exit status {exitcode} without a result"
+
+
+def _train_in_workers(items: Sequence[Item], progress: PlanProgress | None, jobs: int) -> list[Outcome]:
+    """Up to ``jobs`` worker processes at a time, one per run; a run whose worker died starts again."""
+    context = multiprocessing.get_context("spawn")
+    messages = context.Queue()
+    waiting = deque(range(len(items)))
+    running: dict[int, Any] = {}
+    tries = dict.fromkeys(range(len(items)), 0)
+    outcomes: dict[int, Outcome] = {}
+    try:
+        while waiting or running:
+            while waiting and len(running) < jobs:
+                key = waiting.popleft()
+                tries[key] += 1
+                worker = context.Process(
+                    target=_work, args=(key, items[key], messages), name=describe_item(items[key]), daemon=True
+                )
+                with thread_limits():
+                    worker.start()
+                running[key] = worker
+            ended = [key for key, worker in running.items() if not worker.is_alive()]
+            _read(messages, outcomes, items, progress, wait=not ended)
+            for key in ended:  # their last messages are read: a worker sends its outcome before it exits
+                worker = running.pop(key)
+                worker.join()
+                if key in outcomes:
+                    continue
+                death = _death(worker.exitcode)
+                if tries[key] <= MAX_RETRIES:
+                    waiting.appendleft(key)
+                    if progress is not None:
+                        progress.retry(key, f"{describe_item(items[key])}: worker {death}; resuming it")
+                    continue
+                outcomes[key] = Outcome(items[key], None, f"its worker process died {tries[key]} times, last {death}")
+                if progress is not None:
+                    progress.close_item(key)
+    finally:
+        for worker in running.values():
+            worker.kill()
+            worker.join()
+        messages.close()
+    return [outcomes[key] for key in range(len(items))]
+
+
+def _read(
+    messages: Any, outcomes: dict[int, Outcome], items: Sequence[Item], progress: PlanProgress | None, wait: bool
+) -> None:
+    """Handle every message the workers sent (waiting a little for the first when ``wait``)."""
+    timeout = 0.2 if wait else 0.0
+    while True:
+        try:
+            kind, key, *body = messages.get(timeout=timeout) if timeout else messages.get_nowait()
+        except queue.Empty:
+            return
+        timeout = 0.0
+        if kind == "progress":
+            if progress is not None:
+                progress.item(items[key].env_id, *body, key)
+        else:
+            outcomes[key] = body[0]
+            if progress is not None:
+                progress.close_item(key)
