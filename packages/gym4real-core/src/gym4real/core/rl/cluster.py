@@ -29,7 +29,9 @@ def _ray() -> Any:
     try:
         import ray
     except ImportError as exc:
-        raise Gym4RealError(f'--ray needs the `cluster` extra ({exc.name} is missing): `pip install "gym4real-core[cluster]"`') from exc
+        raise Gym4RealError(
+            f'--ray needs the `cluster` extra ({exc.name} is missing): `pip install "gym4real-core[cluster]"`'
+        ) from exc
     return ray
 
 

@@ -127,21 +127,23 @@ def thread_limits() -> Iterator[None]:
                 os.environ[name] = value
 
 
-def _work(key: int, item: Item, messages: Any) -> None:
-    """A worker process: one run of the plan; its progress and outcome go to the parent as messages."""
-    last = 0.0
+def _serve(tasks: Any, messages: Any) -> None:
+    """A worker process: runs of the plan, one at a time, until told to stop; messages go to the parent."""
+    while (task := tasks.get()) is not None:
+        key, item = task
+        last = 0.0
 
-    def report(done: int, total: int) -> None:
-        nonlocal last
-        now = time.monotonic()
-        if now - last >= REPORT_EVERY_S or done >= total:
-            last = now
-            messages.put(("progress", key, done, total))
+        def report(done: int, total: int, key: int = key) -> None:
+            nonlocal last
+            now = time.monotonic()
+            if now - last >= REPORT_EVERY_S or done >= total:
+                last = now
+                messages.put(("progress", key, done, total))
 
-    try:
-        messages.put(("done", key, Outcome(item, run_item(item, report))))
-    except Exception as exc:  # reported to the parent, which goes on with the other runs
-        messages.put(("done", key, Outcome(item, None, describe_error(exc))))
+        try:
+            messages.put(("done", key, Outcome(item, run_item(item, report))))
+        except Exception as exc:  # reported to the parent, which goes on with the other runs
+            messages.put(("done", key, Outcome(item, None, describe_error(exc))))
 
 
 def _death(exitcode: int | None) -> str:
@@ -150,67 +152,85 @@ def _death(exitcode: int | None) -> str:
             return f"killed by {signal.Signals(-exitcode).name}"
         except ValueError:
             return f"killed by signal {-exitcode}"
-    return f"exit status {exitcode} without a result"
+    return f"exit status {exitcode}"
+
+
+class _Worker:
+    """A worker process and the run it is on (``key``, None when idle)."""
+
+    def __init__(self, context: Any, messages: Any) -> None:
+        self.tasks = context.SimpleQueue()
+        self.process = context.Process(target=_serve, args=(self.tasks, messages), daemon=True)
+        with thread_limits():
+            self.process.start()
+        self.key: int | None = None
+
+    def give(self, key: int, item: Item) -> None:
+        self.key = key
+        self.tasks.put((key, item))
 
 
 def _train_in_workers(items: Sequence[Item], progress: PlanProgress | None, jobs: int) -> list[Outcome]:
-    """Up to ``jobs`` worker processes at a time, one per run; a run whose worker died starts again."""
+    """``jobs`` worker processes take the runs in turn; a run whose worker died starts again in a new one."""
     context = multiprocessing.get_context("spawn")
     messages = context.Queue()
     waiting = deque(range(len(items)))
-    running: dict[int, Any] = {}
     tries = dict.fromkeys(range(len(items)), 0)
     outcomes: dict[int, Outcome] = {}
+    workers = [_Worker(context, messages) for _ in range(min(jobs, len(items)))]
     try:
-        while waiting or running:
-            while waiting and len(running) < jobs:
-                key = waiting.popleft()
-                tries[key] += 1
-                worker = context.Process(
-                    target=_work, args=(key, items[key], messages), name=describe_item(items[key]), daemon=True
-                )
-                with thread_limits():
-                    worker.start()
-                running[key] = worker
-            ended = [key for key, worker in running.items() if not worker.is_alive()]
-            _read(messages, outcomes, items, progress, wait=not ended)
-            for key in ended:  # their last messages are read: a worker sends its outcome before it exits
-                worker = running.pop(key)
-                worker.join()
-                if key in outcomes:
-                    continue
-                death = _death(worker.exitcode)
-                if tries[key] <= MAX_RETRIES:
-                    waiting.appendleft(key)
-                    if progress is not None:
-                        progress.retry(key, f"{describe_item(items[key])}: worker {death}; resuming it")
-                    continue
-                outcomes[key] = Outcome(items[key], None, f"its worker process died {tries[key]} times, last {death}")
-                if progress is not None:
-                    progress.close_item(key)
+        while len(outcomes) < len(items):
+            for worker in workers:
+                if worker.key is None and waiting:
+                    key = waiting.popleft()
+                    tries[key] += 1
+                    worker.give(key, items[key])
+            dead = [w for w in workers if not w.process.is_alive()]
+            for key, outcome in _read(messages, items, progress, wait=not dead):  # the dead's last ones too
+                outcomes[key] = outcome
+                next(w for w in workers if w.key == key).key = None
+            for worker in dead:
+                workers.remove(worker)
+                worker.process.join()
+                key = worker.key
+                if key is not None:
+                    death = _death(worker.process.exitcode)
+                    if tries[key] <= MAX_RETRIES:
+                        waiting.appendleft(key)
+                        if progress is not None:
+                            progress.retry(key, f"{describe_item(items[key])}: worker {death}; resuming the run")
+                    else:
+                        outcomes[key] = Outcome(items[key], None, f"its worker died {tries[key]} times, last {death}")
+                        if progress is not None:
+                            progress.close_item(key)
+                if waiting:
+                    workers.append(_Worker(context, messages))
+        for worker in workers:
+            worker.tasks.put(None)
+        for worker in workers:
+            worker.process.join(timeout=10)
     finally:
-        for worker in running.values():
-            worker.kill()
-            worker.join()
+        for worker in workers:
+            if worker.process.is_alive():
+                worker.process.kill()
+                worker.process.join()
         messages.close()
     return [outcomes[key] for key in range(len(items))]
 
 
-def _read(
-    messages: Any, outcomes: dict[int, Outcome], items: Sequence[Item], progress: PlanProgress | None, wait: bool
-) -> None:
-    """Handle every message the workers sent (waiting a little for the first when ``wait``)."""
+def _read(messages: Any, items: Sequence[Item], progress: PlanProgress | None, wait: bool) -> list[tuple[int, Outcome]]:
+    """Every message the workers sent (waiting a little for the first when ``wait``): the runs finished."""
+    finished = []
     timeout = 0.2 if wait else 0.0
     while True:
         try:
             kind, key, *body = messages.get(timeout=timeout) if timeout else messages.get_nowait()
         except queue.Empty:
-            return
+            return finished
         timeout = 0.0
-        if kind == "progress":
-            if progress is not None:
-                progress.item(items[key].env_id, *body, key)
-        else:
-            outcomes[key] = body[0]
+        if kind == "done":
+            finished.append((key, body[0]))
             if progress is not None:
                 progress.close_item(key)
+        elif progress is not None:
+            progress.item(items[key].env_id, *body, key)

@@ -1,11 +1,11 @@
-"""Run folders kept in a storage that every machine of a cluster reaches: a local or NFS path, or any
-filesystem URI that pyarrow opens (``s3://bucket/prefix``, ``gs://...``, ``hdfs://...``).
+"""Run folders kept in a storage that every machine of a cluster reaches.
 
-A worker restores its run's folder from the storage before it starts (so a run resumes from its last
-checkpoint on whichever machine runs it), uploads it after each checkpoint and at the end; the driver
-downloads every run folder and builds the results from them. Each file is written whole (to a temporary
-name, then moved), and a run's markers last: its checkpoint state, then ``run.json``, so a copy
-interrupted midway leaves the previous checkpoint or finished run readable.
+The storage is a local or NFS path, or any filesystem URI that pyarrow opens (``s3://bucket/prefix``,
+``gs://...``, ``hdfs://...``). A worker restores its run's folder from the storage before it starts (so a
+run resumes from its last checkpoint on whichever machine runs it), and uploads it after each checkpoint
+and at the end; the driver downloads every run folder and builds the results from them. Each file is
+written whole (to a temporary name, then moved), and a run's markers last: its checkpoint state, then
+``run.json``, so a copy interrupted midway leaves the previous checkpoint or finished run readable.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ def _pyarrow_fs() -> Any:
         from pyarrow import fs
     except ImportError as exc:
         raise Gym4RealError(
-            f"--storage needs pyarrow ({exc.name} is missing): `pip install \"gym4real-core[cluster]\"`"
+            f'--storage needs pyarrow ({exc.name} is missing): `pip install "gym4real-core[cluster]"`'
         ) from exc
     return fs
 
@@ -62,9 +62,7 @@ class Storage:
             return {}
         infos = self.fs.get_file_info(fs.FileSelector(path, recursive=True))
         return {
-            i.path[len(path) + 1 :]: i
-            for i in infos
-            if i.type == fs.FileType.File and not i.path.endswith(_PARTIAL)
+            i.path[len(path) + 1 :]: i for i in infos if i.type == fs.FileType.File and not i.path.endswith(_PARTIAL)
         }
 
     def upload(self, folder: Path, relative: str) -> None:
