@@ -1,4 +1,6 @@
-"""`gym4real reproduce --jobs N`: the same results as one job, a killed worker's run resumed, the plan's estimates."""
+"""`gym4real reproduce --jobs N` and `--ray`: the same results as one job, a killed worker's run resumed from its
+checkpoint, the plan's estimates. The Ray tests run where the `cluster` extra is installed (as in the 1.2.2
+run of `nox -s tests`)."""
 
 from __future__ import annotations
 
@@ -9,7 +11,9 @@ import signal
 import threading
 import time
 import zipfile
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -17,7 +21,7 @@ import pytest
 from gym4real.core.rl.estimate import budget_units, estimate, wall_time
 from gym4real.core.rl.plan import Item, plan
 from gym4real.core.rl.progress import PlanProgress
-from gym4real.core.rl.runner import train_plan
+from gym4real.core.rl.runner import THREAD_LIMITS, train_plan
 from gym4real.core.rl.train import train
 
 # A PPO run of a few seconds on short dam episodes (the registered smoke preset trains for half a minute).
@@ -33,6 +37,23 @@ eval_env_kwargs: {preset: validation, sim_horizon: 60}
 eval_freq: 128
 eval_episodes: 1
 eval_seed: 10000
+"""
+
+
+# Q-learning on the elevator for a few seconds, with a checkpoint every 15 episodes.
+LONG_QLEARNING = """
+algo: qlearning
+episodes: 150
+alpha: 0.1
+gamma: 1.0
+epsilon: {start: 1.0, decay: 0.97, min: 0.05}
+eval_every: 15
+eval_episodes: 2
+patience: 100
+min_improvement: 0.1
+eval_seed: 10000
+env_kwargs: {duration: 600}
+eval_env_kwargs: {duration: 600}
 """
 
 
@@ -107,11 +128,7 @@ def _workers() -> list[int]:
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="finds the worker processes in /proc (Linux)")
 def test_a_killed_workers_run_resumes_from_its_checkpoint_to_the_uninterrupted_result(tmp_path: Path) -> None:
     preset = tmp_path / "long.yaml"
-    preset.write_text(
-        "algo: qlearning\nepisodes: 150\nalpha: 0.1\ngamma: 1.0\nepsilon: {start: 1.0, decay: 0.97, min: 0.05}\n"
-        "eval_every: 15\neval_episodes: 2\npatience: 100\nmin_improvement: 0.1\neval_seed: 10000\n"
-        "env_kwargs: {duration: 600}\neval_env_kwargs: {duration: 600}\n"
-    )
+    preset.write_text(LONG_QLEARNING)
     whole = train("gym4real/elevator-v0", "qlearning", str(preset), seed=5, out=tmp_path / "whole")
     folder = tmp_path / "out" / "elevator-v0" / "quick" / "runs" / "qlearning" / "seed5"
     items = [
@@ -177,3 +194,102 @@ def test_the_plan_estimates_runs_from_the_measured_ones(tmp_path: Path) -> None:
         units * run.wall_time_s / budget_units(run.env_id, "qlearning", run.preset)
     )
     assert found[5].source == "budget x recorded step rate"  # sarsa was measured nowhere
+
+
+@pytest.fixture(scope="module")
+def local_ray() -> Iterator[Any]:
+    """A local Ray instance of 2 CPUs for the module's Ray tests, shut down after them."""
+    ray = pytest.importorskip("ray", reason="the `cluster` extra (Ray) is not installed")
+    pytest.importorskip("pyarrow", reason="the `cluster` extra (pyarrow) is not installed")
+    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False, runtime_env={"env_vars": THREAD_LIMITS})
+    try:
+        yield ray
+    finally:
+        ray.shutdown()
+
+
+@pytest.mark.slow
+def test_ray_trains_the_same_runs_as_one_job_through_the_storage(tmp_path: Path, local_ray: Any) -> None:
+    pytest.importorskip("stable_baselines3")
+    from gym4real.core.rl.cluster import train_on_ray
+
+    one, on_ray = _plan(tmp_path / "one", tmp_path), _plan(tmp_path / "ray", tmp_path)
+    train_plan(one, jobs=1)
+    storage = tmp_path / "storage"
+    outcomes = train_on_ray(on_ray, tmp_path / "ray", storage)
+    assert [o.item for o in outcomes] == on_ray and all(o.run is not None for o in outcomes), outcomes
+    for a, b in zip(one, on_ray, strict=True):
+        stored = storage / b.folder.relative_to(tmp_path / "ray")
+        assert (stored / "run.json").exists() and not (stored / "checkpoint").exists()
+        assert (a.folder / "curve.csv").read_bytes() == (b.folder / "curve.csv").read_bytes(), b.folder
+        assert _model(a) == _model(b), b.folder
+
+
+def _ray_workers(function: str) -> list[int]:
+    """The Ray worker processes running ``function`` (Ray names them ``ray::<function>``)."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        try:
+            if entry.name.isdigit() and (entry / "cmdline").read_bytes().startswith(f"ray::{function}".encode()):
+                found.append(int(entry.name))
+        except OSError:
+            continue
+    return found
+
+
+@pytest.mark.slow
+def test_a_run_whose_ray_worker_is_killed_resumes_from_the_storage(tmp_path: Path, local_ray: Any) -> None:
+    from gym4real.core.rl.cluster import train_on_ray
+
+    preset = tmp_path / "long.yaml"
+    preset.write_text(LONG_QLEARNING)
+    whole = train("gym4real/elevator-v0", "qlearning", str(preset), seed=5, out=tmp_path / "whole")
+    out, storage = tmp_path / "out", tmp_path / "storage"
+    folder = out / "elevator-v0" / "quick" / "runs" / "qlearning" / "seed5"
+    stored = storage / folder.relative_to(out) / "checkpoint.npz"
+    killed: dict[str, Any] = {}
+
+    def kill_after_the_first_stored_checkpoint() -> None:
+        deadline = time.monotonic() + 180
+        while not stored.exists() and time.monotonic() < deadline:
+            time.sleep(0.005)
+        with np.load(stored) as data:
+            killed["episode"] = int(data["episode"])
+        killed["pids"] = _ray_workers("train_task")
+        for pid in killed["pids"]:
+            os.kill(pid, signal.SIGKILL)
+
+    killer = threading.Thread(target=kill_after_the_first_stored_checkpoint)
+    killer.start()
+    outcomes = train_on_ray([Item("gym4real/elevator-v0", "qlearning", str(preset), 5, folder)], out, storage)
+    killer.join()
+    assert killed["pids"] and killed["episode"] < 150, "the run was not killed in the middle"
+    assert outcomes[0].run is not None, outcomes
+    np.testing.assert_array_equal(np.load(folder / "qtable.npz")["q"], np.load(whole.model_path)["q"])
+    assert (folder / "curve.csv").read_bytes() == whole.curve_csv.read_bytes()
+
+
+def test_the_storage_mirrors_a_run_folder_both_ways(tmp_path: Path) -> None:
+    pytest.importorskip("pyarrow", reason="the `cluster` extra (pyarrow) is not installed")
+    from gym4real.core.rl.storage import Storage
+
+    run = tmp_path / "run"
+    (run / "checkpoint").mkdir(parents=True)
+    for name, text in {"curve.csv": "a", "checkpoint/state.json": "{}", "checkpoint/model.zip": "z"}.items():
+        (run / name).write_text(text)
+    storage = Storage(tmp_path / "store")
+    storage.upload(run, "env/quick/runs/ppo/seed0")
+    (run / "checkpoint" / "state.json").unlink()
+    (run / "checkpoint" / "model.zip").unlink()
+    (run / "checkpoint").rmdir()
+    (run / "run.json").write_text("{}")
+    storage.upload(run, "env/quick/runs/ppo/seed0")  # the finished run: its checkpoint is gone there too
+    stored = tmp_path / "store" / "env" / "quick" / "runs" / "ppo" / "seed0"
+    assert sorted(p.relative_to(stored).as_posix() for p in stored.rglob("*")) == ["curve.csv", "run.json"]
+    back = tmp_path / "back"
+    (back / "stale").mkdir(parents=True)
+    (back / "stale" / "old.txt").write_text("x")
+    assert storage.download("env/quick/runs/ppo/seed0", back)
+    assert sorted(p.relative_to(back).as_posix() for p in back.rglob("*")) == ["curve.csv", "run.json"]
+    assert (back / "curve.csv").read_text() == "a"
+    assert not storage.download("env/quick/runs/ppo/seed1", tmp_path / "none")

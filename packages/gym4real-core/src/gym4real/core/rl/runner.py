@@ -192,8 +192,8 @@ def _train_in_workers(items: Sequence[Item], progress: PlanProgress | None, jobs
             for worker in dead:
                 workers.remove(worker)
                 worker.process.join()
-                key = worker.key
-                if key is not None:
+                if worker.key is not None:
+                    key = worker.key
                     death = _death(worker.process.exitcode)
                     if tries[key] <= MAX_RETRIES:
                         waiting.appendleft(key)
@@ -220,7 +220,7 @@ def _train_in_workers(items: Sequence[Item], progress: PlanProgress | None, jobs
 
 def _read(messages: Any, items: Sequence[Item], progress: PlanProgress | None, wait: bool) -> list[tuple[int, Outcome]]:
     """Every message the workers sent (waiting a little for the first when ``wait``): the runs finished."""
-    finished = []
+    finished: list[tuple[int, Outcome]] = []
     timeout = 0.2 if wait else 0.0
     while True:
         try:
@@ -233,4 +233,5 @@ def _read(messages: Any, items: Sequence[Item], progress: PlanProgress | None, w
             if progress is not None:
                 progress.close_item(key)
         elif progress is not None:
-            progress.item(items[key].env_id, *body, key)
+            done, total = body
+            progress.item(items[key].env_id, done, total, key)

@@ -55,15 +55,19 @@ class Storage:
         """Where a run folder lies when the storage is a path of this machine, else None."""
         return Path(self.root) / relative if self._local else None
 
-    def _files(self, path: str) -> dict[str, Any]:
-        """The files under ``path`` by their path relative to it (none when it does not exist)."""
+    def _entries(self, path: str) -> tuple[set[str], set[str]]:
+        """The files and the folders under ``path``, relative to it (none when it does not exist)."""
         fs = _pyarrow_fs()
         if self.fs.get_file_info(path).type == fs.FileType.NotFound:
-            return {}
-        infos = self.fs.get_file_info(fs.FileSelector(path, recursive=True))
-        return {
-            i.path[len(path) + 1 :]: i for i in infos if i.type == fs.FileType.File and not i.path.endswith(_PARTIAL)
-        }
+            return set(), set()
+        files, folders = set(), set()
+        for info in self.fs.get_file_info(fs.FileSelector(path, recursive=True)):
+            name = info.path[len(path) + 1 :]
+            if info.type == fs.FileType.Directory:
+                folders.add(name)
+            elif info.type == fs.FileType.File and not name.endswith(_PARTIAL):
+                files.add(name)
+        return files, folders
 
     def upload(self, folder: Path, relative: str) -> None:
         """Mirror a local run folder into the storage (files gone from ``folder`` are deleted there)."""
@@ -76,13 +80,19 @@ class Storage:
             with local[name].open("rb") as src, self.fs.open_output_stream(target + _PARTIAL) as dst:
                 shutil.copyfileobj(src, dst, 1 << 20)
             self.fs.move(target + _PARTIAL, target)
-        for name in sorted(set(self._files(remote)) - set(local), key=_order, reverse=True):
+        files, folders = self._entries(remote)
+        for name in sorted(files - set(local), key=_order, reverse=True):
             self.fs.delete_file(f"{remote}/{name}")
+        gone: list[str] = []
+        for name in sorted(folders - {p.relative_to(folder).as_posix() for p in folder.rglob("*") if p.is_dir()}):
+            if not any(name.startswith(f"{parent}/") for parent in gone):  # deleting a folder deleted its children
+                self.fs.delete_dir(f"{remote}/{name}")
+                gone.append(name)
 
     def download(self, relative: str, folder: Path) -> bool:
         """Mirror the storage's copy of a run folder into ``folder``; False when the storage has none."""
         remote = f"{self.root}/{relative}"
-        files = self._files(remote)
+        files, _ = self._entries(remote)
         if not files:
             return False
         folder.mkdir(parents=True, exist_ok=True)
@@ -93,7 +103,11 @@ class Storage:
             with self.fs.open_input_stream(f"{remote}/{name}") as src, partial.open("wb") as dst:
                 shutil.copyfileobj(src, dst, 1 << 20)
             partial.replace(target)
-        for path in sorted(p for p in folder.rglob("*") if p.is_file()):
-            if path.relative_to(folder).as_posix() not in files:
+        for path in sorted(folder.rglob("*"), reverse=True):  # children before their folder
+            if path.relative_to(folder).as_posix() in files:
+                continue
+            if path.is_dir() and not any(path.iterdir()):
+                path.rmdir()
+            elif path.is_file():
                 path.unlink()
         return True
