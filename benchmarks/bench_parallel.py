@@ -83,7 +83,13 @@ def main() -> None:
         from gym4real.core.rl.cluster import train_on_ray
 
         start = time.perf_counter()
-        ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False, runtime_env={"env_vars": THREAD_LIMITS})
+        ray.init(
+            num_cpus=2,
+            include_dashboard=False,
+            log_to_driver=False,
+            runtime_env={"env_vars": THREAD_LIMITS},
+            _node_ip_address="127.0.0.1",  # this machine only
+        )
         started = time.perf_counter() - start
         rows.append(_measure("--ray (2 CPUs)", 2, items("ray"), lambda p: train_on_ray(p, root / "ray"), one))
         rows[-1]["executor"] += f", ray.init {started:.1f} s"

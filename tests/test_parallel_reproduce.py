@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from gym4real.core.rl.estimate import budget_units, estimate, wall_time
+from gym4real.core.rl.estimate import budget_units, duration, estimate, wall_time
 from gym4real.core.rl.plan import Item, plan
 from gym4real.core.rl.progress import PlanProgress
 from gym4real.core.rl.runner import THREAD_LIMITS, train_plan
@@ -201,7 +201,13 @@ def local_ray() -> Iterator[Any]:
     """A local Ray instance of 2 CPUs for the module's Ray tests, shut down after them."""
     ray = pytest.importorskip("ray", reason="the `cluster` extra (Ray) is not installed")
     pytest.importorskip("pyarrow", reason="the `cluster` extra (pyarrow) is not installed")
-    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False, runtime_env={"env_vars": THREAD_LIMITS})
+    ray.init(
+        num_cpus=2,
+        include_dashboard=False,
+        log_to_driver=False,
+        runtime_env={"env_vars": THREAD_LIMITS},
+        _node_ip_address="127.0.0.1",  # this machine only
+    )
     try:
         yield ray
     finally:
@@ -293,3 +299,39 @@ def test_the_storage_mirrors_a_run_folder_both_ways(tmp_path: Path) -> None:
     assert sorted(p.relative_to(back).as_posix() for p in back.rglob("*")) == ["curve.csv", "run.json"]
     assert (back / "curve.csv").read_text() == "a"
     assert not storage.download("env/quick/runs/ppo/seed1", tmp_path / "none")
+
+
+def test_reproduce_plan_prints_the_runs_and_the_wall_time_and_trains_nothing(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from gym4real.core.cli import main
+
+    out = tmp_path / "out"
+    assert (
+        main(
+            [
+                "reproduce",
+                "gym4real/elevator-v0",
+                "--budget",
+                "paper",
+                "--seeds",
+                "3",
+                "--plan",
+                "--jobs",
+                "2",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
+    text = capsys.readouterr().out
+    assert "elevator-v0 qlearning/paper seed 42" in text and "elevator-v0 sarsa/paper seed 1" in text
+    costs = [e.cpu_s for e in estimate(plan("gym4real/elevator-v0", "paper", 3, out), out) if e.cpu_s is not None]
+    assert "6 runs, 0 of unknown cost" in text and f"with 2 job(s): {duration(wall_time(costs, 2))}," in text
+    assert not out.exists()
+    with pytest.raises(SystemExit):
+        main(["reproduce", "gym4real/elevator-v0", "--jobs", "0"])
+    assert "expected a positive number of jobs or `auto`" in capsys.readouterr().err
+    assert main(["reproduce", "gym4real/elevator-v0", "--storage", str(tmp_path)]) == 2
+    assert "pass it with --ray" in capsys.readouterr().err
