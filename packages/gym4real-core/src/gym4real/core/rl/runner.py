@@ -4,9 +4,9 @@ A run whose folder already holds a finished run of the same settings is reused; 
 from its last checkpoint (:func:`gym4real.core.rl.train.train`). A run that fails is reported with its
 error and does not stop the others.
 
-:func:`train_plan` runs the plan here, one run at a time, or ``jobs`` runs at a time, each in a worker
-process of its own (started with ``spawn``, its numerical libraries limited to one thread each, so that
-``jobs`` workers on ``jobs`` cores do not oversubscribe them). A worker that dies (killed, out of memory)
+:func:`train_plan` runs the plan here, one run at a time, or ``jobs`` runs at a time in ``jobs`` worker
+processes that take the runs in turn (started with ``spawn``, their numerical libraries limited to one
+thread each, so that ``jobs`` workers on ``jobs`` cores do not oversubscribe them). A worker that dies (killed, out of memory)
 loses the work since its run's last checkpoint: the run starts again from that checkpoint, up to
 :data:`MAX_RETRIES` times. Every run is seeded and independent of the others, so the results do not depend
 on ``jobs`` or on the order the runs finish in. :mod:`gym4real.core.rl.cluster` runs a plan on Ray.
