@@ -6,10 +6,11 @@ error and does not stop the others.
 
 :func:`train_plan` runs the plan here, one run at a time, or ``jobs`` runs at a time in ``jobs`` worker
 processes that take the runs in turn (started with ``spawn``, their numerical libraries limited to one
-thread each, so that ``jobs`` workers on ``jobs`` cores do not oversubscribe them). A worker that dies (killed, out of memory)
-loses the work since its run's last checkpoint: the run starts again from that checkpoint, up to
-:data:`MAX_RETRIES` times. Every run is seeded and independent of the others, so the results do not depend
-on ``jobs`` or on the order the runs finish in. :mod:`gym4real.core.rl.cluster` runs a plan on Ray.
+thread each, so that ``jobs`` workers on ``jobs`` cores do not oversubscribe them). A worker that dies
+(killed, out of memory) loses the work since its run's last checkpoint: the run starts again from that
+checkpoint in a new worker, up to :data:`MAX_RETRIES` times. Every run is seeded and independent of the
+others, so the results do not depend on ``jobs`` or on the order the runs finish in.
+:mod:`gym4real.core.rl.cluster` runs a plan on Ray.
 """
 
 from __future__ import annotations
