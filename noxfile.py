@@ -75,7 +75,8 @@ def _editable(dist: Path) -> str:
 def tests(session: nox.Session, gymnasium: str) -> None:
     """All packages editable in one venv; every suite, on the latest gymnasium and on 1.2.2.
 
-    The 1.2.2 run installs Ray RLlib (which pins it) and so also runs the RLlib test.
+    The 1.2.2 run installs Ray RLlib (which pins it) and the `cluster` extra (Ray core, pyarrow), and so also
+    runs the RLlib test and the tests of `gym4real reproduce --ray` on a local Ray instance.
     """
     session.install(TORCH)
     session.install(*(_editable(d) for d in PACKAGES))
@@ -86,7 +87,7 @@ def tests(session: nox.Session, gymnasium: str) -> None:
         *DOCS,
     )
     if gymnasium != "latest":
-        session.install(f"gymnasium=={gymnasium}", f"-e{CORE}[ray]")
+        session.install(f"gymnasium=={gymnasium}", f"-e{CORE}[ray,cluster]")
     suites = ["tests", *(str(d / "tests") for d in PACKAGES)]
     session.run(
         "pytest", "-n", "2", "--dist", "loadfile", "-rs", *suites, *session.posargs, env=ENV | _data_env(session)

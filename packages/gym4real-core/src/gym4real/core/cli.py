@@ -185,7 +185,36 @@ def _cmd_reproduce(args: argparse.Namespace) -> None:
     if bool(args.env_ids) == args.all:
         raise Gym4RealError("name the environments to reproduce, or pass --all (not both)")
     env_ids = list_envs() if args.all else args.env_ids
-    print(reproduce(env_ids, args.budget, args.seeds, args.out, progress=not args.quiet, page=args.page))
+    if args.storage and not args.ray:
+        raise Gym4RealError("--storage is where Ray workers keep the run folders: pass it with --ray")
+    if args.plan:
+        from gym4real.core.rl.estimate import plan_report
+
+        print(plan_report(env_ids, args.budget, args.seeds, Path(args.out), args.jobs))
+        return
+    text = reproduce(
+        env_ids,
+        args.budget,
+        args.seeds,
+        args.out,
+        progress=not args.quiet,
+        page=args.page,
+        jobs=args.jobs,
+        ray=args.ray,
+        storage=args.storage,
+    )
+    print(text)
+
+
+def _jobs(text: str) -> int:
+    """``--jobs``: a positive number, or ``auto`` (the cores available to this process)."""
+    from gym4real.core.rl.runner import available_cpus
+
+    if text == "auto":
+        return available_cpus()
+    if not text.isdigit() or int(text) < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive number of jobs or `auto`, not `{text}`")
+    return int(text)
 
 
 def _seed_list(text: str | None) -> list[int] | None:
@@ -326,6 +355,29 @@ def _parser() -> argparse.ArgumentParser:
     rep.add_argument("--out", default="results/reproduce", help="output folder; finished runs there are reused")
     rep.add_argument("--page", default=None, help="also write the results page and figures into this folder")
     rep.add_argument("--quiet", action="store_true", help="no progress bar")
+    rep.add_argument(
+        "--jobs",
+        type=_jobs,
+        default=1,
+        metavar="N|auto",
+        help="training runs at a time, each in a worker process (auto: one per available core; default 1)",
+    )
+    rep.add_argument(
+        "--ray",
+        action="store_true",
+        help="run the training runs on Ray (extra `cluster`): the cluster RAY_ADDRESS names, else a local instance",
+    )
+    rep.add_argument(
+        "--storage",
+        default=None,
+        metavar="URI",
+        help="with --ray: where workers keep run folders and checkpoints (a path, NFS, s3://...; default --out)",
+    )
+    rep.add_argument(
+        "--plan",
+        action="store_true",
+        help="print the plan, each run's estimated CPU time and the wall time for --jobs workers, and exit",
+    )
 
     ev = _command(
         sub,

@@ -13,10 +13,14 @@ def _slug(env_id: str) -> str:
 
 
 class PlanProgress:
-    """One progress bar over a whole plan: its training runs and each environment's test, one unit each."""
+    """One progress bar over a whole plan: its training runs and each environment's test, one unit each.
+
+    Items running at the same time (parallel executors) are told apart by ``key``, their index in the plan.
+    """
 
     def __init__(self, total: int, show: bool) -> None:
         self.closed = 0
+        self.running: dict[int, float] = {}
         self.bar = None
         if show:
             from tqdm.auto import tqdm
@@ -27,17 +31,29 @@ class PlanProgress:
                 bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.2f}/{total} runs and tests [{elapsed}<{remaining}]",
             )
 
-    def item(self, env_id: str, done: int, total: int) -> None:
-        """The current item has ``done`` of its ``total`` units done (a trainer may overshoot its budget)."""
+    def _show(self) -> None:
+        if self.bar is not None:
+            self.bar.update(self.closed + sum(self.running.values()) - self.bar.n)
+
+    def item(self, env_id: str, done: int, total: int, key: int = -1) -> None:
+        """Item ``key`` has ``done`` of its ``total`` units done (a trainer may overshoot its budget)."""
+        self.running[key] = min(done / max(total, 1), 1.0)
         if self.bar is not None:
             self.bar.set_description(f"reproduce {_slug(env_id)}", refresh=False)
-            self.bar.update(self.closed + min(done / max(total, 1), 1.0) - self.bar.n)
+        self._show()
 
-    def close_item(self) -> None:
-        """The current item is finished."""
-        self.closed += 1
+    def retry(self, key: int, message: str) -> None:
+        """Item ``key`` starts again (its worker died): its progress restarts from its checkpoint's."""
+        self.running.pop(key, None)
         if self.bar is not None:
-            self.bar.update(self.closed - self.bar.n)
+            self.bar.write(message)
+        self._show()
+
+    def close_item(self, key: int = -1) -> None:
+        """Item ``key`` is finished."""
+        self.running.pop(key, None)
+        self.closed += 1
+        self._show()
 
     def close(self) -> None:
         """Close the bar."""

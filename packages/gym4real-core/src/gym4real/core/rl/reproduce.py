@@ -232,6 +232,9 @@ def reproduce(
     out: str | Path = "results/reproduce",
     progress: bool = False,
     page: str | Path | None = None,
+    jobs: int = 1,
+    ray: bool = False,
+    storage: str | None = None,
 ) -> str:
     """Reproduce the paper's results of ``env_ids``; return a text report (tables and claim verdicts).
 
@@ -245,6 +248,9 @@ def reproduce(
         out: Output folder (see the module's docstring for its layout).
         progress: One progress bar over the whole plan (training runs, then the tests of each env).
         page: Also write the results page and its figures into this folder (a docs folder).
+        jobs: Training runs at a time on this machine (:func:`~gym4real.core.rl.runner.train_plan`).
+        ray: Run the training runs on Ray instead (:func:`~gym4real.core.rl.cluster.train_on_ray`).
+        storage: With ``ray``: where the workers keep the run folders (default ``out``).
     """
     out = Path(out)
     plans: dict[str, list[Item]] = {}
@@ -255,7 +261,13 @@ def reproduce(
         except Gym4RealError as exc:
             errors[env_id] = " ".join(str(exc).split())
     bar = PlanProgress(sum(len(items) for items in plans.values()) + len(plans), progress)
-    outcomes = train_plan([item for items in plans.values() for item in items], bar)
+    everything = [item for items in plans.values() for item in items]
+    if ray:
+        from gym4real.core.rl.cluster import train_on_ray
+
+        outcomes = train_on_ray(everything, out, storage, bar)
+    else:
+        outcomes = train_plan(everything, bar, jobs)
     lines = []
     for env_id, items in plans.items():
         mine = [o for o in outcomes if o.item.env_id == env_id]
