@@ -312,3 +312,20 @@ def test_dam_and_wds_select_their_models_on_held_out_data() -> None:
     start, stop = validation_demand.test_indices
     assert train_demand.split == "train" and validation_demand.split == "test"
     assert test_profiles.isdisjoint(range(start, stop))
+
+
+def test_a_copy_outside_git_records_the_code_version_its_launcher_states(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import subprocess
+
+    from gym4real.core.rl import train as train_module
+
+    def no_git(*args: object, **kwargs: object) -> subprocess.CompletedProcess[str]:
+        return subprocess.CompletedProcess(args, 128, "", "fatal: not a git repository")
+
+    monkeypatch.setattr(train_module.subprocess, "run", no_git)
+    monkeypatch.delenv("GYM4REAL_CODE_VERSION", raising=False)
+    assert "gym4real (git)" not in train_module.versions()
+    monkeypatch.setenv("GYM4REAL_CODE_VERSION", "abc1234")
+    assert train_module.versions()["gym4real (git)"] == "abc1234 (stated)"

@@ -9,6 +9,7 @@ settings resumes it; a folder of other settings is refused.
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import time
 from dataclasses import dataclass
@@ -54,8 +55,17 @@ def default_out(env_id: str, algo: str, preset: str, seed: int) -> Path:
     return Path("runs") / env_id.replace("/", "_") / f"{algo}-{name}-seed{seed}"
 
 
+#: The code version of a copy that is not a git checkout (wheels built from a commit and installed on a
+#: remote worker), as its launcher states it; a git checkout's own ``git describe`` always wins.
+CODE_VERSION_ENV = "GYM4REAL_CODE_VERSION"
+
+
 def versions() -> dict[str, str]:
-    """Installed versions of the packages a training result depends on, and the commit of a git checkout."""
+    """Installed versions of the packages a training result depends on, and the commit of the code.
+
+    The commit is ``git describe --always --dirty`` of the checkout holding this code, else the value of
+    ``GYM4REAL_CODE_VERSION`` (suffixed ``(stated)``), else absent.
+    """
     found = {}
     for dist in _VERSIONS:
         try:
@@ -70,9 +80,11 @@ def versions() -> dict[str, str]:
             check=False,
         )
     except OSError:  # no git
-        return found
-    if git.returncode == 0:
+        git = None
+    if git is not None and git.returncode == 0:
         found["gym4real (git)"] = git.stdout.strip()
+    elif os.environ.get(CODE_VERSION_ENV):
+        found["gym4real (git)"] = f"{os.environ[CODE_VERSION_ENV]} (stated)"
     return found
 
 
