@@ -117,7 +117,8 @@ class NormalizedPolicy:
         import torch
 
         policy = self.model.policy
-        policy.set_training_mode(False)
+        if policy.training:  # switching every module costs more than the forward pass: once
+            policy.set_training_mode(False)
         tensor, _ = policy.obs_to_tensor(self._normalize(obs))
         with torch.inference_mode():
             actions = policy._predict(tensor, deterministic=True).cpu().numpy()
