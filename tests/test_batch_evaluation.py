@@ -97,3 +97,12 @@ def test_episodes_that_end_early_drop_out_of_the_batch() -> None:
     evaluation.close()
     assert len({len(r) for r in expected}) > 1  # the episodes do end at different steps
     assert [r.tolist() for r in got] == [r.tolist() for r in expected]
+
+
+def test_a_configuration_the_native_env_does_not_batch_runs_in_single_envs() -> None:
+    kwargs = {"preset": "test", "max_steps": 10, "fidelity": "upstream"}  # MicrogridVectorEnv batches "corrected"
+    evaluation = BatchEvaluation("gym4real/microgrid-v0", kwargs, 2, 7, native=True)
+    assert evaluation.vector is None and len(evaluation.envs) == 2
+    policy = _policy("gym4real/microgrid-v0", kwargs, "ppo", normalize=False)
+    assert [len(r) for r in evaluation.run(policy)] == [10, 10]
+    evaluation.close()

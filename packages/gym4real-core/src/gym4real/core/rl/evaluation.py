@@ -13,6 +13,7 @@ slower, see ``benchmarks/bench_training.py``).
 
 from __future__ import annotations
 
+import contextlib
 from typing import TYPE_CHECKING, Any
 
 import gymnasium as gym
@@ -52,7 +53,10 @@ class BatchEvaluation:
         if native is None:
             native = episodes >= NATIVE_MIN_EPISODES and gym.spec(env_id).vector_entry_point is not None
         if native:
-            self.vector = gym.make_vec(env_id, episodes, vectorization_mode="vector_entry_point", **env_kwargs)
+            # a configuration the native env does not batch (upstream fidelity) runs in single envs
+            with contextlib.suppress(ValueError):
+                self.vector = gym.make_vec(env_id, episodes, vectorization_mode="vector_entry_point", **env_kwargs)
+        if self.vector is not None:
             self.single_action_space = self.vector.single_action_space
         else:
             self.envs = [gym.make(env_id, **env_kwargs) for _ in range(episodes)]
