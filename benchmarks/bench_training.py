@@ -9,11 +9,12 @@ presets the compiled loop (after its compilation) and the Python loop are both t
 
 With ``--end-to-end``: a short training run with the preset's settings, evaluation included, as a ratio to
 the single env's raw step rate (``gymnasium.make``, random actions), all in one process (CPU seconds,
-interleaved: raw, now, before, raw again). The run trains ``--steps`` steps (PPO's rollouts shortened to
-fit, ``n_steps * n_envs <= --steps``: the cost a step of the update does not depend on it) and then
-evaluates once, at the preset's cadence: its ``eval_episodes`` episodes cut to the length that makes
-evaluation steps per training step what the preset's ``eval_freq`` gives (``eval_episodes *`` episode
-length ``/ eval_freq``, ``eval_freq`` counted in steps of all envs, as the trainer does). "before" runs the
+interleaved after an untimed warm-up run: raw, now, before, raw again). The run trains ``--steps`` steps
+(PPO's rollouts shortened to fit, ``n_steps * n_envs <= --steps``: the cost a step of the update does not
+depend on it) and evaluates at the preset's cadence (``eval_episodes *`` episode length ``/ eval_freq``
+evaluation steps per training step, ``eval_freq`` counted in steps of all envs, as the trainer does): every
+``eval_freq`` steps, or, where the run is shorter, once at its end with the episodes cut in proportion.
+"before" runs the
 same with the harness before issue 22 (SB3's ``DummyVecEnv``, one evaluation episode after the other
 through ``predict``). Microgrid trains and evaluates on the ``default`` preset (the paper preset's
 training households are not in the offline data folder).
@@ -170,8 +171,8 @@ def _end_to_end(item: str, env_kwargs: dict[str, Any] | None, steps: int, raw_st
     eval_kwargs = env_kwargs if env_kwargs is not None else (hp.get("eval_env_kwargs") or hp["env_kwargs"])
     episodes, freq = int(hp["eval_episodes"]), int(hp["eval_freq"])
     full = _episode_length(env_id, eval_kwargs, int(hp["eval_seed"]))
-    cadence = episodes * full / freq  # evaluation steps per training step at the preset's cadence
-    length = max(1, min(full, round(cadence * steps / episodes)))
+    every = steps // math.ceil(steps / freq)  # evaluations spread evenly over the run, as often as the preset's
+    length = max(1, min(full, round(full * every / freq)))  # shorter episodes where `every` < `freq`
     hyper = dict(hp["hyperparams"])
     if algo == "ppo":
         per_env = min(hyper["n_steps"], steps // hp["n_envs"])
@@ -181,12 +182,14 @@ def _end_to_end(item: str, env_kwargs: dict[str, Any] | None, steps: int, raw_st
         **hp,
         "hyperparams": hyper,
         "total_timesteps": steps,
-        "eval_freq": 10**12,  # the one evaluation: at the end of training
+        "eval_freq": every,
         "env_kwargs": train_kwargs,
         "eval_env_kwargs": {**eval_kwargs, "max_episode_steps": length},
     }
+    with tempfile.TemporaryDirectory() as tmp:  # warm-up (first torch calls, data caches): not timed
+        train_sb3(env_id, {**short, "total_timesteps": 1}, 0, Path(tmp))
     raw = [_raw_rate(env_id, train_kwargs, raw_steps)]
-    rates = {}
+    rates, counts = {}, {}
     for label in ("now", "before"):
         harness = _before_issue_22() if label == "before" else contextlib.nullcontext()
         with tempfile.TemporaryDirectory() as tmp, harness:
@@ -198,7 +201,8 @@ def _end_to_end(item: str, env_kwargs: dict[str, Any] | None, steps: int, raw_st
     return {
         "preset": item,
         "raw steps/CPU s": raw_rate,
-        "eval steps per train step": episodes * length / steps,
+        "preset's eval steps per train step": episodes * full / freq,
+        "eval steps per train step": counts["eval"] / counts["train"],
         "train steps/CPU s": rates["now"],
         "ratio": rates["now"] / raw_rate,
         "before: train steps/CPU s": rates["before"],
