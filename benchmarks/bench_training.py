@@ -1,4 +1,4 @@
-"""Where RL training time goes: the environment or the learner, per training preset.
+"""Where RL training time goes: the environment or the learner, per training preset; end-to-end throughput.
 
 For each preset, a short training run (the preset's settings, ``--steps`` environment steps, no evaluation
 until the end) is timed, and the same number of steps of the training environment alone (the trainer's
@@ -7,19 +7,36 @@ process (``time.process_time``), so that a shared machine's load does not count;
 environment steps per CPU second, with the environment's share of the training time. For the tabular
 presets the compiled loop (after its compilation) and the Python loop are both timed.
 
+With ``--end-to-end``: a short training run with the preset's settings, evaluation included, as a ratio to
+the single env's raw step rate (``gymnasium.make``, random actions), all in one process (CPU seconds,
+interleaved after an untimed warm-up run: raw, now, before, raw again). The run trains ``--steps`` steps
+(PPO's rollouts shortened to fit, ``n_steps * n_envs <= --steps``: the cost a step of the update does not
+depend on it) and evaluates at the preset's cadence (``eval_episodes *`` episode length ``/ eval_freq``
+evaluation steps per training step, ``eval_freq`` counted in steps of all envs, as the trainer does): every
+``eval_freq`` steps, or, where the run is shorter, once at its end with the episodes cut in proportion.
+"before" runs the
+same with the harness before issue 22 (SB3's ``DummyVecEnv``, one evaluation episode after the other
+through ``predict``). Microgrid trains and evaluates on the ``default`` preset (the paper preset's
+training households are not in the offline data folder).
+
     python benchmarks/bench_training.py [--presets gym4real/dam-v0:ppo:paper,...] [--steps 20000]
+    python benchmarks/bench_training.py --end-to-end [--steps 16384] [--json out.json]
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import math
 import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
+from report import report  # benchmarks/report.py (the script's folder is on sys.path)
 
 import gym4real
 from gym4real.core.rl.plan import presets
@@ -83,12 +100,132 @@ def _train(env_id: str, hp: dict[str, Any], steps: int, compiled: bool | None) -
         return time.process_time() - start, counts["train"]
 
 
+#: The end-to-end presets, with the env arguments the benchmark trains and evaluates on.
+END_TO_END = {
+    "gym4real/microgrid-v0:ppo:paper": {"preset": "default"},
+    "gym4real/dam-v0:ppo:paper": None,
+    "gym4real/wds-v0:dqn:paper": None,
+    "gym4real/trading-v0:ppo:hourly": None,
+}
+
+
+def _raw_rate(env_id: str, kwargs: dict[str, Any], steps: int) -> float:
+    """Steps per CPU second of the single env from ``gymnasium.make`` (random actions drawn beforehand)."""
+    env = gym.make(env_id, **kwargs)
+    env.reset(seed=0)
+    env.action_space.seed(0)
+    actions = [env.action_space.sample() for _ in range(steps)]
+    start = time.process_time()
+    for a in actions:
+        *_, terminated, truncated, _ = env.step(a)
+        if terminated or truncated:
+            env.reset()
+    cpu = time.process_time() - start
+    env.close()
+    return steps / cpu
+
+
+def _episode_length(env_id: str, kwargs: dict[str, Any], seed: int) -> int:
+    env = gym.make(env_id, **kwargs)
+    env.reset(seed=seed)
+    env.action_space.seed(seed)
+    n, done = 0, False
+    while not done:
+        *_, terminated, truncated, _ = env.step(env.action_space.sample())
+        n, done = n + 1, terminated or truncated
+    env.close()
+    return n
+
+
+@contextlib.contextmanager
+def _before_issue_22() -> Iterator[None]:
+    """The training harness as it was: SB3's DummyVecEnv, evaluation episodes one at a time through ``predict``."""
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from gym4real.core.benchmark import run_episode
+    from gym4real.core.rl import evaluation, vec_env
+
+    class OneAtATime(evaluation.BatchEvaluation):
+        def __init__(self, env_id: str, env_kwargs: dict[str, Any], episodes: int, seed: int) -> None:
+            super().__init__(env_id, env_kwargs, 1, seed, native=False)
+            self.episodes = episodes
+
+        def run(self, policy: Any) -> list[np.ndarray]:
+            env = self.envs[0]
+            return [run_episode(env, policy, self.seed + i, None)["rewards"] for i in range(self.episodes)]
+
+    saved = evaluation.BatchEvaluation, vec_env.TrainingVecEnv
+    evaluation.BatchEvaluation, vec_env.TrainingVecEnv = OneAtATime, DummyVecEnv  # type: ignore[misc]
+    try:
+        yield
+    finally:
+        evaluation.BatchEvaluation, vec_env.TrainingVecEnv = saved  # type: ignore[misc]
+
+
+def _end_to_end(item: str, env_kwargs: dict[str, Any] | None, steps: int, raw_steps: int) -> dict[str, Any]:
+    from gym4real.core.rl.sb3 import train_sb3
+
+    env_id, algo, preset = item.split(":")
+    hp = load_preset(env_id, algo, preset)
+    train_kwargs = env_kwargs if env_kwargs is not None else hp["env_kwargs"]
+    eval_kwargs = env_kwargs if env_kwargs is not None else (hp.get("eval_env_kwargs") or hp["env_kwargs"])
+    episodes, freq = int(hp["eval_episodes"]), int(hp["eval_freq"])
+    full = _episode_length(env_id, eval_kwargs, int(hp["eval_seed"]))
+    every = steps // math.ceil(steps / freq)  # evaluations spread evenly over the run, as often as the preset's
+    length = max(1, min(full, round(full * every / freq)))  # shorter episodes where `every` < `freq`
+    hyper = dict(hp["hyperparams"])
+    if algo == "ppo":
+        per_env = min(hyper["n_steps"], steps // hp["n_envs"])
+        hyper["n_steps"] = per_env
+        hyper["batch_size"] = math.gcd(hyper["batch_size"], per_env * hp["n_envs"])
+    short = {
+        **hp,
+        "hyperparams": hyper,
+        "total_timesteps": steps,
+        "eval_freq": every,
+        "env_kwargs": train_kwargs,
+        "eval_env_kwargs": {**eval_kwargs, "max_episode_steps": length},
+    }
+    with tempfile.TemporaryDirectory() as tmp:  # warm-up (first torch calls, data caches): not timed
+        train_sb3(env_id, {**short, "total_timesteps": 1}, 0, Path(tmp))
+    raw = [_raw_rate(env_id, train_kwargs, raw_steps)]
+    rates, counts = {}, {}
+    for label in ("now", "before"):
+        harness = _before_issue_22() if label == "before" else contextlib.nullcontext()
+        with tempfile.TemporaryDirectory() as tmp, harness:
+            start = time.process_time()
+            _, counts = train_sb3(env_id, short, 0, Path(tmp))
+            rates[label] = counts["train"] / (time.process_time() - start)
+    raw.append(_raw_rate(env_id, train_kwargs, raw_steps))
+    raw_rate = float(np.mean(raw))
+    return {
+        "preset": item,
+        "raw steps/CPU s": raw_rate,
+        "preset's eval steps per train step": episodes * full / freq,
+        "eval steps per train step": counts["eval"] / counts["train"],
+        "train steps/CPU s": rates["now"],
+        "ratio": rates["now"] / raw_rate,
+        "before: train steps/CPU s": rates["before"],
+        "before: ratio": rates["before"] / raw_rate,
+        "speed-up": rates["now"] / rates["before"],
+    }
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--presets", default=DEFAULT, help="comma-separated ENV:ALGO:PRESET")
-    parser.add_argument("--steps", type=int, default=20_000, help="environment steps per measurement")
+    parser.add_argument("--presets", default=None, help="comma-separated ENV:ALGO:PRESET")
+    parser.add_argument("--steps", type=int, default=None, help="environment steps per measurement")
+    parser.add_argument("--end-to-end", action="store_true", help="training throughput with evaluation")
+    parser.add_argument("--json", help="(--end-to-end) also write the rows to this JSON file")
     args = parser.parse_args()
     gym4real.register_envs()
+    if args.end_to_end:
+        items = args.presets.split(",") if args.presets else list(END_TO_END)
+        steps = args.steps or 16_384
+        rows = [_end_to_end(item, END_TO_END.get(item), steps, min(steps, 20_000)) for item in items]
+        report(rows, list(rows[0]), 3, args.json)
+        return
+    args.presets, args.steps = args.presets or DEFAULT, args.steps or 20_000
     print("preset | loop | train steps/CPU s | env-only steps/CPU s | env share of training")
     print("--- | --- | --- | --- | ---")
     for item in args.presets.split(","):

@@ -98,13 +98,38 @@ class NormalizedPolicy:
             }
         return np.clip((obs - s["mean"]) / np.sqrt(s["var"] + s["epsilon"]), -clip, clip)
 
+    def _to_bounds(self, action: Any) -> Any:
+        if self.bounds is None:
+            return action
+        low, high = self.bounds
+        return (low + (np.clip(action, -1.0, 1.0) + 1.0) * 0.5 * (high - low)).astype(low.dtype)
+
     def __call__(self, obs: Any) -> Any:
         """Return the model's deterministic action."""
         action, _ = self.model.predict(self._normalize(obs), deterministic=True)
-        if self.bounds is not None:
-            low, high = self.bounds
-            action = (low + (np.clip(action, -1.0, 1.0) + 1.0) * 0.5 * (high - low)).astype(low.dtype)
-        return action
+        return self._to_bounds(action)
+
+    def actions(self, obs: Any) -> np.ndarray:
+        """The deterministic actions of a batch of observations (first axis), in one forward pass.
+
+        Each row is what ``__call__`` gives for that observation alone, up to the floating-point rounding
+        of a matrix product over a batch instead of one row.
+        """
+        import torch
+
+        policy = self.model.policy
+        if policy.training:  # switching every module costs more than the forward pass: once
+            policy.set_training_mode(False)
+        tensor, _ = policy.obs_to_tensor(self._normalize(obs))
+        with torch.inference_mode():
+            actions = policy._predict(tensor, deterministic=True).cpu().numpy()
+        space = policy.action_space
+        actions = actions.reshape((-1, *space.shape))
+        if isinstance(space, gym.spaces.Box) and policy.squash_output:  # as SB3's predict
+            actions = policy.unscale_action(actions)
+        elif isinstance(space, gym.spaces.Box):
+            actions = np.clip(actions, space.low, space.high)
+        return np.asarray(self._to_bounds(actions))
 
 
 def load_model(env: gym.Env[Any, Any], path: str | Path, algo: str) -> NormalizedPolicy:
@@ -254,16 +279,17 @@ def train_sb3(
     sb3 = _sb3()
     from stable_baselines3.common.callbacks import BaseCallback
     from stable_baselines3.common.env_util import make_vec_env
-    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize
+    from stable_baselines3.common.vec_env import SubprocVecEnv, VecNormalize
 
-    from gym4real.core.benchmark import run_episode
     from gym4real.core.rl.curves import LearningCurve
+    from gym4real.core.rl.evaluation import BatchEvaluation
+    from gym4real.core.rl.vec_env import TrainingVecEnv
 
     algo = hp["algo"]
     if algo not in ALGOS:
         raise ConfigError(f"algo `{algo}` is not one of {sorted(ALGOS)}")
     n_envs = int(hp.get("n_envs", 1))
-    vec_cls = SubprocVecEnv if hp.get("vec_env") == "subproc" and n_envs > 1 else DummyVecEnv
+    vec_cls = SubprocVecEnv if hp.get("vec_env") == "subproc" and n_envs > 1 else TrainingVecEnv
     # render_mode=None: SB3 otherwise asks every env for "rgb_array"
     env_kwargs = {"render_mode": None, **hp.get("env_kwargs", {})}
     venv = make_vec_env(
@@ -289,9 +315,11 @@ def train_sb3(
         buffer = getattr(model, "replay_buffer", None)
         if buffer is not None and (checkpoint / "buffer.npz").exists():
             _load_buffer(buffer, checkpoint / "buffer.npz")
-    eval_env = gym.make(env_id, **(hp.get("eval_env_kwargs") or hp.get("env_kwargs", {})))
     model_path = out / "model.zip"
     eval_freq, eval_episodes, eval_seed = int(hp["eval_freq"]), int(hp["eval_episodes"]), int(hp["eval_seed"])
+    evaluation = BatchEvaluation(
+        env_id, hp.get("eval_env_kwargs") or hp.get("env_kwargs", {}), eval_episodes, eval_seed
+    )
     total = int(hp["total_timesteps"])
     done_before = int(state["timesteps"]) if state else 0
     curve = LearningCurve.load(out, "timesteps", upto=done_before)
@@ -307,8 +335,7 @@ def train_sb3(
             stats: dict[str, Any] | None = None
             if isinstance(venv, VecNormalize) and norm_obs:  # a copy: training goes on updating the statistics
                 stats = {k: np.array(v) for k, v in _rms_arrays(venv).items()}
-            policy = NormalizedPolicy(self.model, stats, eval_env.action_space)
-            rewards = [run_episode(eval_env, policy, eval_seed + i, None)["rewards"] for i in range(eval_episodes)]
+            rewards = evaluation.run(NormalizedPolicy(self.model, stats, evaluation.single_action_space))
             self.eval_steps += sum(len(r) for r in rewards)
             mean = curve.add(self.num_timesteps, [float(r.sum()) for r in rewards])
             if mean > self.best:
@@ -354,6 +381,6 @@ def train_sb3(
     callback = Evaluate()
     model.learn(total_timesteps=max(total - done_before, 0), callback=callback, reset_num_timesteps=state is None)
     venv.close()
-    eval_env.close()
+    evaluation.close()
     shutil.rmtree(checkpoint, ignore_errors=True)
     return model_path, {"train": int(model.num_timesteps), "eval": callback.eval_steps}

@@ -261,7 +261,9 @@ def train_tabular(
     curve = LearningCurve.load(out, "episodes", upto=done)
 
     if kernel is not None:
-        from gym4real.core.rl.compiled import run_episode as compiled_episode
+        from gym4real.core.rl.compiled import episode_loop
+
+        compiled_episode = episode_loop(kernel.step, kernel.observe)
 
         no_draws = np.zeros(1)
 
@@ -269,9 +271,7 @@ def train_tabular(
             rets = []
             for i in range(eval_episodes):
                 state, data = kernel.reset(eval_env.unwrapped, eval_seed + i)
-                ret, n = compiled_episode(
-                    kernel.step, kernel.observe, state, data, table, weights, no_draws, 0.0, 0.0, 0.0, False, False
-                )
+                ret, n = compiled_episode(state, data, table, weights, no_draws, 0.0, 0.0, 0.0, False, False)
                 rets.append(ret)
                 steps["eval"] += n
             return rets
@@ -289,9 +289,7 @@ def train_tabular(
         if kernel is not None:
             state, data = kernel.reset(env.unwrapped, episode_seed)
             u = draws.upto(kernel.horizon + 1)
-            _, n = compiled_episode(
-                kernel.step, kernel.observe, state, data, q, weights, u, eps, alpha, gamma, sarsa, True
-            )
+            _, n = compiled_episode(state, data, q, weights, u, eps, alpha, gamma, sarsa, True)
         else:
             n = _python_episode(env, episode_seed, q, indexer, draws, hp, eps)
         steps["train"] += n

@@ -1,0 +1,108 @@
+"""Batched evaluation of a training run gives each episode the rewards of today's one-at-a-time evaluation."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3")
+
+from gym4real.core.benchmark import run_episode
+from gym4real.core.rl.evaluation import BatchEvaluation
+from gym4real.core.rl.sb3 import NormalizedPolicy, rescaled
+
+
+def _policy(env_id: str, kwargs: dict[str, Any], algo: str, normalize: bool) -> NormalizedPolicy:
+    """An untrained (seeded) SB3 model on ``env_id``'s spaces, with observation statistics of a random walk."""
+    from stable_baselines3 import DQN, PPO
+
+    env = gym.make(env_id, **kwargs)
+    actions = env.action_space
+    if rescaled(actions):
+        actions = gym.spaces.Box(-1.0, 1.0, actions.shape, actions.dtype)  # type: ignore[arg-type]
+
+    class Spaces(gym.Env[Any, Any]):
+        observation_space, action_space = env.observation_space, actions
+
+    algo_cls = {"ppo": PPO, "dqn": DQN}[algo]
+    model = algo_cls("MlpPolicy", Spaces(), seed=0, device="cpu", policy_kwargs={"net_arch": [64, 32]})
+    stats = None
+    if normalize:
+        env.action_space.seed(1)
+        first, _ = env.reset(seed=99)
+        walk = np.array([first] + [env.step(env.action_space.sample())[0] for _ in range(40)], dtype=np.float64)
+        stats = {"mean": walk.mean(0), "var": walk.var(0) + 0.1, "epsilon": np.array(1e-8), "clip_obs": np.array(10.0)}
+    return NormalizedPolicy(model, stats, env.action_space)
+
+
+def _one_at_a_time(env_id: str, kwargs: dict[str, Any], policy: NormalizedPolicy, n: int) -> list[np.ndarray]:
+    """Today's evaluation: one env, episode ``i`` seeded ``7 + i``, one ``predict`` per step."""
+    env = gym.make(env_id, **kwargs)
+    return [run_episode(env, policy, 7 + i, None)["rewards"] for i in range(n)]
+
+
+@pytest.mark.parametrize("native", [False, True], ids=["single-envs", "native-vector"])
+def test_batched_evaluation_of_normalised_continuous_actions_equals_one_at_a_time(native: bool) -> None:
+    # microgrid: Box actions on [0, 1] (learnt on [-1, 1]) with normalised observations
+    kwargs = {"preset": "test", "max_steps": 40}
+    policy = _policy("gym4real/microgrid-v0", kwargs, "ppo", normalize=True)
+    expected = _one_at_a_time("gym4real/microgrid-v0", kwargs, policy, 4)
+    evaluation = BatchEvaluation("gym4real/microgrid-v0", kwargs, 4, 7, native=native)
+    got = evaluation.run(policy)
+    evaluation.close()
+    assert [len(r) for r in got] == [len(r) for r in expected]
+    # a matrix product over the batch may round the float32 actions differently from one row (a few ulps),
+    # and the native env reorders float64 sums (equal to the single env to 1e-9): not bit-equal, but close
+    for a, b in zip(got, expected, strict=True):
+        np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-6)
+    assert sum(float(np.abs(r).sum()) for r in got) > 0  # the rewards compared are not all zero
+
+
+@pytest.mark.parametrize("native", [False, True], ids=["single-envs", "native-vector"])
+@pytest.mark.parametrize("algo", ["ppo", "dqn"])
+def test_batched_evaluation_of_discrete_actions_equals_one_at_a_time_exactly(algo: str, native: bool) -> None:
+    # trading: Discrete(3) actions from argmax/mode: the same actions, so the very same rewards
+    kwargs = {"preset": "validation"}
+    policy = _policy("gym4real/trading-v0", kwargs, algo, normalize=False)
+    expected = _one_at_a_time("gym4real/trading-v0", kwargs, policy, 6)
+    evaluation = BatchEvaluation("gym4real/trading-v0", kwargs, 6, 7, native=native)
+    got = evaluation.run(policy)
+    evaluation.close()
+    assert [r.tolist() for r in got] == [r.tolist() for r in expected]
+    assert any(np.any(r != 0) for r in got)
+
+
+def test_batched_actions_are_each_rows_own_action() -> None:
+    kwargs = {"preset": "test", "max_steps": 40}
+    policy = _policy("gym4real/microgrid-v0", kwargs, "ppo", normalize=True)
+    env = gym.make("gym4real/microgrid-v0", **kwargs)
+    observations = np.stack([env.reset(seed=s)[0] for s in range(5)])
+    batch = policy.actions(observations)
+    assert batch.shape == (5, 1) and batch.dtype == np.float32
+    assert np.all((batch >= 0) & (batch <= 1))  # mapped onto the env's bounds
+    for row, obs in zip(batch, observations, strict=True):
+        np.testing.assert_allclose(row, policy(obs), rtol=1e-6, atol=1e-7)
+
+
+def test_episodes_that_end_early_drop_out_of_the_batch() -> None:
+    # CartPole's episodes under an untrained policy end at different steps: each must keep its own length
+    # and rewards, none of the steps after its end (an autoreset would add reward 1 per step)
+    policy = _policy("CartPole-v1", {}, "dqn", normalize=False)
+    expected = _one_at_a_time("CartPole-v1", {}, policy, 8)
+    evaluation = BatchEvaluation("CartPole-v1", {}, 8, 7, native=False)
+    got = evaluation.run(policy)
+    evaluation.close()
+    assert len({len(r) for r in expected}) > 1  # the episodes do end at different steps
+    assert [r.tolist() for r in got] == [r.tolist() for r in expected]
+
+
+def test_a_configuration_the_native_env_does_not_batch_runs_in_single_envs() -> None:
+    kwargs = {"preset": "test", "max_steps": 10, "fidelity": "upstream"}  # MicrogridVectorEnv batches "corrected"
+    evaluation = BatchEvaluation("gym4real/microgrid-v0", kwargs, 2, 7, native=True)
+    assert evaluation.vector is None and len(evaluation.envs) == 2
+    policy = _policy("gym4real/microgrid-v0", kwargs, "ppo", normalize=False)
+    assert [len(r) for r in evaluation.run(policy)] == [10, 10]
+    evaluation.close()
