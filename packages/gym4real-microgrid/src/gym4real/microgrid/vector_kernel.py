@@ -5,7 +5,8 @@
 order (:meth:`~gym4real.microgrid.battery.BatteryTwin.step` with every correction on, the Bolun aging, the
 streaming rainflow counter, :meth:`~gym4real.microgrid.env.MicrogridEnv.step`'s sums) with the C library's
 ``exp`` and ``pow``, as Python's ``math`` has them: the numbers of the single env, bit for bit. A copy
-that ends inside a decision stops there, as the single env does.
+that ends inside a decision stops there, as the single env does. The helpers are inlined in numba's IR
+(``inline="always"``): as calls they took about a fifth of the time.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from gym4real.microgrid.aging import CYCLIC_FACTORS
 SOC, TEMPERATURE, DOD_BOLUN = (CYCLIC_FACTORS.index(f) for f in ("soc", "temperature", "dod_bolun"))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _bilinear(
     grid_temps: np.ndarray, grid_socs: np.ndarray, values: np.ndarray, temp_c: float, soc: float
 ) -> tuple[float, float, float, float]:
@@ -54,21 +55,21 @@ def _bilinear(
     )
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _dvdt(xs: np.ndarray, ys: np.ndarray, soc: float) -> float:
     """dOCV/dT at ``soc`` (:meth:`BatteryParams.dvdt`)."""
     j = np.searchsorted(xs[1 : xs.size - 1], soc, side="left")  # the first segment whose end is >= soc
     return ys[j] + (ys[j + 1] - ys[j]) * (soc - xs[j]) / (xs[j + 1] - xs[j])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _temperature_stress(aging: tuple[float, ...], temp: float) -> float:
     """:meth:`AgingParams.temperature_stress`."""
     k_temp, temp_ref = aging[5], aging[6]
     return math.exp(k_temp * (temp - temp_ref) * (temp_ref / temp))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _half_damage(
     aging: tuple[float, ...], cyclic: np.ndarray, x0: float, x1: float, span: float, sum_temp: float
 ) -> float:
@@ -85,7 +86,7 @@ def _half_damage(
     return value
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _push_reversal(
     i: int, stack: np.ndarray, size: np.ndarray, last: np.ndarray, damage: np.ndarray, aging: tuple[float, ...],
     cyclic: np.ndarray,
@@ -140,7 +141,7 @@ def _push_reversal(
     damage[2, i] = 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _push(
     i: int,
     x: float,
