@@ -38,8 +38,8 @@ from gym4real.microgrid.env import (
 Array = np.ndarray
 # the rows of the batched twin's state (the compiled step's ``battery``)
 STATE = ("soc", "soh", "soh0", "temperature", "v_rc", "capacity", "calendar", "damage", "degradation")
-# a decision's running sums of each copy, as the single env's step adds them up (the compiled step's ``sums``)
 OBSERVED_STATE = [STATE.index(k) for k in ("soc", "soh", "temperature")]  # reported in info
+# a decision's running sums of each copy, as the single env's step adds them up (the compiled step's ``sums``)
 SUMS = ("trading", "degradation", "clipping", "cost", "demand", "pv", "to_battery", "from_battery", "sold", "bought")
 
 
@@ -507,7 +507,7 @@ class MicrogridVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         sums = np.zeros((len(SUMS), n))
         active = np.ones(n, dtype=bool)
         terminated, truncated = np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
-        frozen: Array | None = None
+        frozen: Array | None = None  # observation and state of the copies that ended inside the interval
         for _ in range(interval):
             r = self._row
             demand = self._demand[self._col, r % self._demand.shape[1]]
