@@ -273,10 +273,10 @@ class _Twin:
         self.rainflow.push(soc, core)
         f_d = self.calendar + self.rainflow.total
         worse = f_d > self.damage
-        self.damage[worse] = f_d[worse]
+        np.copyto(self.damage, f_d, where=worse)
         alpha = ag.alpha_sei
         deg = 1.0 - alpha * np.exp(-ag.beta_sei * f_d) - (1.0 - alpha) * np.exp(-f_d)
-        self.deg[worse] = deg[worse]
+        np.copyto(self.deg, deg, where=worse)
         np.subtract(self.soh0, self.deg, out=self.soh)
         np.multiply(p.nominal_capacity, self.soh, out=self.capacity)
         self.soc[:], self.temperature[:], self.v_rc[:] = soc, core, v_rc
