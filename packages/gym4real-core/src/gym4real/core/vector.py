@@ -64,10 +64,15 @@ def with_masks(info: dict[str, Any], num_envs: int, present: np.ndarray | None =
     and ``info["_reward_components"]``). ``present`` says which copies report (all of them by default: the
     native batched envs step and reset their copies together, except where a copy is autoreset).
     """
+    return _with_mask(info, np.ones(num_envs, dtype=bool) if present is None else present)
+
+
+def _with_mask(info: dict[str, Any], mask: np.ndarray) -> dict[str, Any]:
+    """:func:`with_masks` with a copy of ``mask`` next to each key (a copy: cheaper than a new array)."""
     masked: dict[str, Any] = {}
     for key, value in info.items():
-        masked[key] = with_masks(value, num_envs, present) if isinstance(value, dict) else value
-        masked[f"_{key}"] = np.ones(num_envs, dtype=bool) if present is None else present.copy()
+        masked[key] = _with_mask(value, mask) if isinstance(value, dict) else value
+        masked[f"_{key}"] = mask.copy()
     return masked
 
 

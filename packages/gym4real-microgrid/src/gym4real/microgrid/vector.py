@@ -1,9 +1,12 @@
-"""A native batched MicrogridEnv: N copies stepped together with numpy (corrected dynamics only).
+"""A native batched MicrogridEnv: N copies stepped together (corrected dynamics only).
 
-The battery twin (:class:`~gym4real.microgrid.battery.BatteryTwin` with every correction on), its Bolun
-aging and the streaming rainflow counter are rewritten over arrays of copies with the same arithmetic, in
-the same order, as the scalar code; only ``exp`` and ``pow`` (numpy's against the C library's) may differ in
-the last bit, which moves the state of health by about 1e-16.
+With numba (the extra ``fast``) each decision of every copy runs in one compiled loop
+(:mod:`gym4real.microgrid.vector_kernel`): the single env's numbers, bit for bit. Without it, the battery
+twin (:class:`~gym4real.microgrid.battery.BatteryTwin` with every correction on), its Bolun aging and the
+streaming rainflow counter are rewritten over arrays of copies with the same arithmetic, in the same order,
+as the scalar code; only ``exp`` and ``pow`` differ: numpy's vectorised ones round differently from the C
+library's in the last bit for about 5 % of arguments, which moves the state of health by about 1e-16 and
+the degradation reward (1e-16 times the EUR per unit of SoH) by about 1e-12.
 """
 
 from __future__ import annotations
@@ -18,8 +21,8 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from gym4real.core.actions import box_actions
-from gym4real.core.vector import check_max_episode_steps, copy_generators, with_masks
-from gym4real.microgrid.aging import AgingParams
+from gym4real.core.vector import check_max_episode_steps, compiled_kernel, copy_generators, with_masks
+from gym4real.microgrid.aging import CYCLIC_FACTORS, AgingParams
 from gym4real.microgrid.battery import KELVIN, BatteryParams
 from gym4real.microgrid.config import MicrogridConfig
 from gym4real.microgrid.env import (
@@ -33,6 +36,11 @@ from gym4real.microgrid.env import (
 )
 
 Array = np.ndarray
+# the rows of the batched twin's state (the compiled step's ``battery``)
+STATE = ("soc", "soh", "soh0", "temperature", "v_rc", "capacity", "calendar", "damage", "degradation")
+OBSERVED_STATE = [STATE.index(k) for k in ("soc", "soh", "temperature")]  # reported in info
+# a decision's running sums of each copy, as the single env's step adds them up (the compiled step's ``sums``)
+SUMS = ("trading", "degradation", "clipping", "cost", "demand", "pv", "to_battery", "from_battery", "sold", "bought")
 
 
 def _cycle_damage(p: AgingParams, dod: Array, mean_soc: Array, mean_temp: Array) -> Array:
@@ -45,35 +53,41 @@ def _cycle_damage(p: AgingParams, dod: Array, mean_soc: Array, mean_temp: Array)
         elif factor == "soc":
             value = value * np.exp(p.k_soc * (mean_soc - p.soc_ref))
         else:
-            value = value * np.exp(p.k_temp * (mean_temp - p.temp_ref) * p.temp_ref / mean_temp)
+            value = value * np.exp(p.k_temp * (mean_temp - p.temp_ref) * (p.temp_ref / mean_temp))
     return value
 
 
 class _Rainflow:
     """:class:`~gym4real.microgrid.rainflow.StreamingRainflow` for N series at once.
 
-    Each copy's residue stack is a row of padded arrays (SoC, point index, cumulative temperature before
-    the index, half damage of the pair ending there) grown on demand; the cycle extraction loops while
-    some copy can still close a cycle (a few passes per point).
+    Each copy's residue stack is ``stack[copy]``, its points (SoC, point index, cumulative temperature
+    before the index, half damage of the pair ending there) padded to a depth grown on demand; the cycle
+    extraction loops while some copy can still close a cycle (a few passes per point). The per-copy values
+    are rows of ``walk`` (points so far, cumulative temperature, latest direction), ``last`` and ``damage``
+    (closed, residue, tail), updated in place (the compiled step writes into them).
     """
 
     def __init__(self, n: int, params: AgingParams, depth: int = 32) -> None:
         self.params = params
         self.depth = 0
         self.size = np.zeros(n, dtype=np.int64)
-        self.stack = np.zeros((4, n, 0))  # x, index, cumulative temperature, half damage
+        self.stack = np.zeros((n, 0, 4))  # x, index, cumulative temperature, half damage
         self._grow(n, depth)
-        self.count = np.zeros(n)
-        self.cum_temp = np.zeros(n)
-        self.direction = np.zeros(n)
+        self.walk = np.zeros((3, n))
+        self.count, self.cum_temp, self.direction = self.walk
         self.last = np.zeros((3, n))  # x, index, cumulative temperature of the latest point
-        self.closed = np.zeros(n)
-        self.residue = np.zeros(n)
-        self.tail = np.zeros(n)
+        self.damage = np.zeros((3, n))
+        self.closed, self.residue, self.tail = self.damage
+
+    def reserve(self, points: int) -> None:
+        """Make room in every stack for ``points`` more reversals."""
+        need = int(self.size.max()) + points
+        if need > self.depth:
+            self._grow(len(self.size), max(need, 2 * self.depth))
 
     def _grow(self, n: int, depth: int) -> None:
-        stack = np.zeros((4, n, depth))
-        stack[:, :, : self.depth] = self.stack
+        stack = np.zeros((n, depth, 4))
+        stack[:, : self.depth] = self.stack
         self.stack, self.depth = stack, depth
 
     def reset(self, idx: Array, x: Array, temp: Array) -> None:
@@ -100,7 +114,7 @@ class _Rainflow:
         """Add the next point of every series."""
         point = np.stack([x, self.count, self.cum_temp])
         self.count += 1.0
-        self.cum_temp = self.cum_temp + temp
+        self.cum_temp += temp
         d = x - self.last[0]
         moving = d != 0.0  # flat: not a peak or valley, only the temperature sums move on
         reversal = moving & ((self.size == 0) | (d * self.direction < 0.0))
@@ -109,57 +123,59 @@ class _Rainflow:
         idx = np.flatnonzero(moving)
         self.direction[idx] = d[idx]
         self.last[:, idx] = point[:, idx]
-        top = self.stack[:3, idx, self.size[idx] - 1]
+        top = self.stack[idx, self.size[idx] - 1, :3].T
         self.tail[idx] = self._half(top, point[:, idx])
 
     def _push_reversal(self, idx: Array) -> None:
         """Push the latest point of the copies ``idx`` as a reversal and extract the cycles it closes."""
+        self.reserve(1)
         size, stack = self.size[idx], self.stack
-        if size.max() + 1 > self.depth:
-            self._grow(len(self.size), 2 * self.depth)
-            stack = self.stack
         p = self.last[:, idx]
         half = np.zeros(len(idx))
         below = size > 0
         if below.any():
             j = idx[below]
-            half[below] = self._half(stack[:3, j, size[below] - 1], p[:, below])
+            half[below] = self._half(stack[j, size[below] - 1, :3].T, p[:, below])
             self.residue[j] += half[below]
-        stack[:3, idx, size] = p
-        stack[3, idx, size] = half
+        stack[idx, size, :3] = p.T
+        stack[idx, size, 3] = half
         self.size[idx] = size + 1
         live = idx[self.size[idx] >= 3]
         while live.size:
             n = self.size[live]
-            c, b, a = stack[0, live, n - 1], stack[0, live, n - 2], stack[0, live, n - 3]
+            c, b, a = stack[live, n - 1, 0], stack[live, n - 2, 0], stack[live, n - 3, 0]
             closes = ~(np.abs(c - b) < np.abs(b - a))
             live, n = live[closes], n[closes]
             first = n == 3
             t = live[first]  # the cycle holds the starting point: a half cycle, the first point dropped
             if t.size:
-                bh = stack[3, t, 1]
+                bh = stack[t, 1, 3]
                 self.closed[t] += bh
                 self.residue[t] -= bh
-                stack[:, t, 0] = stack[:, t, 1]
-                stack[3, t, 0] = 0.0
-                stack[:, t, 1] = stack[:, t, 2]
+                stack[t, 0] = stack[t, 1]
+                stack[t, 0, 3] = 0.0
+                stack[t, 1] = stack[t, 2]
                 self.size[t] = 2
             m, k = live[~first], n[~first]  # a full cycle: its two points dropped
             if m.size:
-                ah, bh, ch = stack[3, m, k - 3], stack[3, m, k - 2], stack[3, m, k - 1]
+                ah, bh, ch = stack[m, k - 3, 3], stack[m, k - 2, 3], stack[m, k - 1, 3]
                 self.closed[m] += 2.0 * bh
                 self.residue[m] -= bh + ch + ah
-                c_point = stack[:3, m, k - 1]
-                hc = self._half(stack[:3, m, k - 4], c_point)
-                stack[:3, m, k - 3] = c_point
-                stack[3, m, k - 3] = hc
+                c_point = stack[m, k - 1, :3].T
+                hc = self._half(stack[m, k - 4, :3].T, c_point)
+                stack[m, k - 3, :3] = c_point.T
+                stack[m, k - 3, 3] = hc
                 self.residue[m] += hc
                 self.size[m] = k - 2
             live = live[self.size[live] >= 3]
 
 
 class _Twin:
-    """:class:`~gym4real.microgrid.battery.BatteryTwin` (every correction on) and its aging for N batteries."""
+    """:class:`~gym4real.microgrid.battery.BatteryTwin` (every correction on) and its aging for N batteries.
+
+    The per-copy values are the rows of ``state`` (:data:`STATE`), updated in place (the compiled step
+    writes into them).
+    """
 
     def __init__(self, n: int, params: BatteryParams, eol_soh: float) -> None:
         self.params = p = params
@@ -172,11 +188,10 @@ class _Twin:
         self.aging = a = p.aging
         self._timed = "time" in a.calendar
         self.rainflow = _Rainflow(n, a)
-        zeros = np.zeros(n)
-        self.soc, self.soh, self.soh0 = zeros.copy(), zeros.copy(), zeros.copy()
-        self.temperature, self.v_rc, self.capacity = zeros.copy(), zeros.copy(), zeros.copy()
-        self.calendar, self.damage, self.deg = zeros.copy(), zeros.copy(), zeros.copy()
-        self.violation = zeros.copy()
+        self.state = np.zeros((len(STATE), n))
+        self.soc, self.soh, self.soh0, self.temperature, self.v_rc, self.capacity = self.state[:6]
+        self.calendar, self.damage, self.deg = self.state[6:]
+        self.violation = np.zeros(n)
 
     def reset(self, idx: Array, soc: Array, soh: Array, temperature: Array) -> None:
         """Put the batteries ``idx`` at rest (as :meth:`BatteryTwin.reset`)."""
@@ -253,18 +268,18 @@ class _Twin:
                 stress = stress * np.exp(ag.k_soc * (0.5 * (soc0 + soc) - ag.soc_ref))
             if "temperature" in ag.calendar:
                 mean_t = 0.5 * (temp0 + core)
-                stress = stress * np.exp(ag.k_temp * (mean_t - ag.temp_ref) * ag.temp_ref / mean_t)
-            self.calendar = self.calendar + ag.k_t * dt * stress
+                stress = stress * np.exp(ag.k_temp * (mean_t - ag.temp_ref) * (ag.temp_ref / mean_t))
+            self.calendar += ag.k_t * dt * stress
         self.rainflow.push(soc, core)
         f_d = self.calendar + self.rainflow.total
         worse = f_d > self.damage
-        self.damage = np.where(worse, f_d, self.damage)
+        np.copyto(self.damage, f_d, where=worse)
         alpha = ag.alpha_sei
         deg = 1.0 - alpha * np.exp(-ag.beta_sei * f_d) - (1.0 - alpha) * np.exp(-f_d)
-        self.deg = np.where(worse, deg, self.deg)
-        self.soh = self.soh0 - self.deg
-        self.capacity = p.nominal_capacity * self.soh
-        self.soc, self.temperature, self.v_rc = soc, core, v_rc
+        np.copyto(self.deg, deg, where=worse)
+        np.subtract(self.soh0, self.deg, out=self.soh)
+        np.multiply(p.nominal_capacity, self.soh, out=self.capacity)
+        self.soc[:], self.temperature[:], self.v_rc[:] = soc, core, v_rc
         return applied
 
 
@@ -273,10 +288,13 @@ class MicrogridVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
 
     ## Description
     The equivalent circuit, the thermal model, the calendar aging, the streaming rainflow counter and the
-    reward of every copy are computed together with numpy (no per-copy Python in a step, except at the
-    resets that draw each copy's episode). Only the default ``fidelity="corrected"`` with every fix on is
-    batched; other settings raise ``ValueError`` (use ``gymnasium.vector.SyncVectorEnv``). The copies run
-    the nominal model: the perturbation hook (:meth:`MicrogridEnv.perturb`) is not batched.
+    reward of every copy are computed together (no per-copy Python in a step, except at the resets that
+    draw each copy's episode): with numba installed (the extra ``fast``) in one compiled loop over the
+    copies that evaluates the single env's expressions in its order (bit for bit its numbers);
+    ``compiled=False`` uses numpy (see the module docstring for its last-bit differences), ``compiled=True``
+    requires numba. Only the default ``fidelity="corrected"`` with every fix on is batched; other settings
+    raise ``ValueError`` (use ``gymnasium.vector.SyncVectorEnv``). The copies run the nominal model: the
+    perturbation hook (:meth:`MicrogridEnv.perturb`) is not batched.
 
     ## Spaces
     ``action_space``: ``Box(0, 1, (num_envs, 1), float32)``; an array of shape ``(num_envs,)`` is accepted
@@ -299,9 +317,9 @@ class MicrogridVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
 
     ## Arguments
     ``gymnasium.make_vec("gym4real/microgrid-v0", num_envs=N, vectorization_mode="vector_entry_point",
-    **kwargs)`` or ``MicrogridVectorEnv(N, config=None, preset=None, max_episode_steps=None, **overrides)``,
-    with the single env's configuration arguments; ``max_episode_steps`` truncates a copy after that many
-    decisions, as Gymnasium's ``TimeLimit`` does to the single env.
+    **kwargs)`` or ``MicrogridVectorEnv(N, config=None, preset=None, max_episode_steps=None, compiled=None,
+    **overrides)``, with the single env's configuration arguments; ``max_episode_steps`` truncates a copy
+    after that many decisions, as Gymnasium's ``TimeLimit`` does to the single env.
     """
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP}
@@ -313,6 +331,7 @@ class MicrogridVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         *,
         preset: str | None = None,
         max_episode_steps: int | None = None,
+        compiled: bool | None = None,
         **overrides: Any,
     ) -> None:
         self.single = s = MicrogridEnv(config, preset=preset, **overrides)
@@ -336,10 +355,13 @@ class MicrogridVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         self.single_observation_space = s.observation_space
         self.single_action_space = s.action_space
         self.observation_space = batch_space(s.observation_space, n)
+        shape = self.observation_space.shape
+        assert shape is not None  # a Box batched
+        self._obs_shape = shape
         self.action_space = batch_space(s.action_space, n)
         w = s.world
         self._labels = np.array(w.labels)
-        self._demand = np.asarray(w.demand)
+        self._demand = np.ascontiguousarray(np.asarray(w.demand).T)  # (profile, row): a copy reads along a row
         self._pv, self._ask, self._bid = np.array(s._pv), np.array(s._ask), np.array(s._bid)
         self._temp_amb = np.array(w.temp)
         self._exogenous = self._exogenous_table()
@@ -347,12 +369,16 @@ class MicrogridVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         self._soh_obs = 3 if cfg.observe_soh else None
         self._rngs: list[np.random.Generator] | None = None
         self._cursor = np.zeros(n, dtype=np.int64)
-        self._row = np.ones(n, dtype=np.int64)
-        self._iterations = np.zeros(n, dtype=np.int64)
+        # data row, hours since the copy's reset, its episode's hours, its profile column (updated in place)
+        self._clock = np.ones((4, n), dtype=np.int64)
+        self._row, self._iterations, self._limit, self._col = self._clock
         self._elapsed = np.zeros(n, dtype=np.int64)  # decisions since the copy's reset
-        self._limit = np.ones(n, dtype=np.int64)
-        self._col = np.zeros(n, dtype=np.int64)
         self._autoreset = np.zeros(n, dtype=bool)
+        self._kernel = compiled_kernel(
+            "gym4real.microgrid.vector_kernel", "step_copies", compiled, "pip install gym4real-microgrid[fast]"
+        )
+        if self._kernel is not None:
+            self._compiled_args = self._kernel_constants()
 
     def _exogenous_table(self) -> Array:
         """Per data row: PV of the hour elapsed, ask and bid of the upcoming hour, time angles (as the single env)."""
@@ -367,6 +393,33 @@ class MicrogridVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
                 [s._pv[prev], s._ask[now], s._bid[now], math.sin(year), math.cos(year), math.sin(day), math.cos(day)]
             )
         return np.array(table)
+
+    def _ambient(self, rows: Array) -> Array:
+        """The ambient temperature of the data rows ``rows`` (as the single env's aligned step)."""
+        s = self.single
+        return self._temp_amb[(rows * s._step_s // s.world.temp_step).astype(np.int64) % len(self._temp_amb)]
+
+    def _kernel_constants(self) -> tuple[Any, ...]:
+        """The compiled step's tables and constants (:func:`~gym4real.microgrid.vector_kernel.step_copies`)."""
+        s, p, t = self.single, self.single.battery_params, self.twin
+        a, cal, soh = p.aging, p.aging.calendar, self._soh_obs is not None
+        hourly = np.column_stack([self._pv, self._ask, self._bid, self._ambient(np.arange(s._n_rows))])
+        constants = (
+            *(s._step_s, p.soc_min, p.soc_max, p.current_min, p.current_max, p.power_min, p.power_max),
+            *(p.c_thermal, t._r_tot, p.nominal_capacity, t.eol_soh, s._hours_per_step, s._deg_per_soh, KELVIN),
+        )
+        aging = (
+            *(a.alpha_sei, a.beta_sei, a.k_t, a.k_soc, a.soc_ref, a.k_temp, a.temp_ref),
+            *(a.k_delta1, a.k_delta2, a.k_delta3),
+        )
+        return (
+            (self._demand, hourly, self._exogenous),
+            (t._temps, t._socs, t._values, t._dvdt_x, t._dvdt_y),
+            tuple(float(v) for v in constants),
+            tuple(float(v) for v in aging),
+            np.array([CYCLIC_FACTORS.index(f) for f in a.cyclic], dtype=np.int64),
+            (self.config.decision_interval, int(t._timed), int("soc" in cal), int("temperature" in cal), int(soh)),
+        )
 
     # -- episodes ------------------------------------------------------------------------------------
 
@@ -426,7 +479,7 @@ class MicrogridVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
     def _obs(self) -> Array:
         t, row = self.twin, self._row
         exo = self._exogenous[np.minimum(row, len(self._exogenous) - 1)]
-        demand = self._demand[(row - 1) % len(self._demand), self._col]
+        demand = self._demand[self._col, (row - 1) % self._demand.shape[1]]
         cols = [np.clip(t.temperature, 250.0, 400.0), t.soc, demand, exo[:, 0], exo[:, 1], exo[:, 2]]
         if self._soh_obs is not None:
             cols.insert(self._soh_obs, np.clip(t.soh, 0.0, 1.0))
@@ -442,60 +495,47 @@ class MicrogridVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         n = self.num_envs
         return box_actions(actions, self.single_action_space, n, ACTIONS, tolerance=ACTION_TOLERANCE).reshape(n)
 
-    def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-        """Route each copy's fraction of its net power to its battery for ``decision_interval`` hours.
-
-        Args:
-            actions: One fraction in ``[0, 1]`` per copy.
+    def _hours_numpy(self, a: Array) -> tuple[Array, Array, Array, Array, Array]:
+        """The decision's hours of every copy in numpy (the copies that ended go on, their values frozen).
 
         Returns:
-            Batched observation, reward, terminated, truncated and ``info`` (arrays, one value per copy).
+            The sums (rows :data:`SUMS`), terminated, truncated, the observation (:meth:`_obs`) and the
+            SoC, SoH and temperature (rows) of every copy where its decision ended.
         """
-        a = self._actions(actions)
         n, s, t = self.num_envs, self.single, self.twin
-        interval = self.config.decision_interval
-        dt, hours, temp_step = s._step_s, s._hours_per_step, s.world.temp_step
-        zeros = np.zeros(n)
-        trading, degradation, clipping, cost = zeros.copy(), zeros.copy(), zeros.copy(), zeros.copy()
-        energy = {k: zeros.copy() for k in ("demand", "pv", "to_battery", "from_battery", "sold", "bought")}
+        interval, dt, hours = self.config.decision_interval, s._step_s, s._hours_per_step
+        sums = np.zeros((len(SUMS), n))
         active = np.ones(n, dtype=bool)
         terminated, truncated = np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
         frozen: Array | None = None  # observation and state of the copies that ended inside the interval
         for _ in range(interval):
             r = self._row
-            demand = self._demand[r % len(self._demand), self._col]
-            t_amb = self._temp_amb[(r * dt // temp_step).astype(np.int64) % len(self._temp_amb)]
+            demand = self._demand[self._col, r % self._demand.shape[1]]
+            t_amb = self._ambient(r)
             gen = self._pv[r % s._hour_mod]
             margin = gen - demand
             request = margin * a
-            soh0 = t.soh
+            soh0 = t.soh.copy()
             applied = t.step(request, dt, t_amb)
             traded = margin - applied
             now = r % s._hour_mod
-            price = np.where(traded < 0.0, self._ask[now], self._bid[now])
-            terms = {
-                "trading": traded * price * hours,
-                "degradation": (soh0 - t.soh) * s._deg_per_soh,
-                "clipping": np.abs(request - applied) * hours,
-                "cost": t.violation,
-                "demand": demand * hours,
-                "pv": gen * hours,
-                "to_battery": np.where(applied > 0.0, applied * hours, 0.0),
-                "from_battery": np.where(applied > 0.0, 0.0, applied * hours),
-                "sold": np.where(traded < 0.0, 0.0, traded * hours),
-                "bought": np.where(traded < 0.0, traded * hours, 0.0),
-            }
-            if interval > 1:
-                terms = {k: np.where(active, v, 0.0) for k, v in terms.items()}
-            trading += terms["trading"]
-            degradation -= terms["degradation"]
-            clipping -= terms["clipping"]
-            cost += terms["cost"]
-            for k in ("demand", "pv", "to_battery", "sold"):
-                energy[k] += terms[k]
-            for k in ("from_battery", "bought"):
-                energy[k] -= terms[k]
-            self._row = r + 1
+            bought = traded < 0.0
+            terms = np.stack(
+                [
+                    traded * np.where(bought, self._ask[now], self._bid[now]) * hours,
+                    -((soh0 - t.soh) * s._deg_per_soh),
+                    -(np.abs(request - applied) * hours),
+                    t.violation,
+                    demand * hours,
+                    gen * hours,
+                    np.where(applied > 0.0, applied * hours, 0.0),
+                    -np.where(applied > 0.0, 0.0, applied * hours),
+                    np.where(bought, 0.0, traded * hours),
+                    -np.where(bought, traded * hours, 0.0),
+                ]
+            )  # the single env adds or subtracts each: x - y is x + (-y) exactly
+            sums += terms if interval == 1 else np.where(active, terms, 0.0)
+            self._row += 1
             self._iterations += 1
             term = t.soh <= t.eol_soh
             trunc = self._iterations >= self._limit
@@ -509,12 +549,47 @@ class MicrogridVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
                     frozen = now_state if frozen is None else np.where(ended[:, None], now_state, frozen)
                     if not active.any():
                         break
-        obs = self._obs()
-        soc, soh, temperature = t.soc.copy(), t.soh.copy(), t.temperature.copy()
+        obs, state = self._obs(), t.state[OBSERVED_STATE]
         if frozen is not None:
             done = terminated | truncated
             obs[done] = frozen[done, :-3]
-            soc[done], soh[done], temperature[done] = frozen[done, -3:].T
+            state[:, done] = frozen[done, -3:].T
+        return sums, terminated, truncated, obs, state
+
+    def _hours_compiled(self, a: Array) -> tuple[Array, Array, Array, Array, Array]:
+        """:meth:`_hours_numpy` as one compiled loop over the copies; a copy stops where it ends.
+
+        The copies that ended at the previous step are skipped (they restart now, their action unused).
+
+        Returns:
+            As :meth:`_hours_numpy` (the observation of the skipped copies is left at 0).
+        """
+        n, t, rf = self.num_envs, self.twin, self.twin.rainflow
+        rf.reserve(self.config.decision_interval)  # at most one reversal an hour
+        sums, ended = np.zeros((len(SUMS), n)), np.zeros((2, n), dtype=bool)
+        obs = np.zeros(self._obs_shape, dtype=np.float32)
+        exogenous, grid, constants, aging, cyclic, flags = self._compiled_args
+        self._kernel(
+            *(a, self._autoreset, t.state, rf.stack, rf.size, rf.walk, rf.last, rf.damage, self._clock),
+            *(exogenous, grid, constants, aging, cyclic, flags, sums, ended, obs),
+        )
+        return sums, ended[0], ended[1], obs, t.state[OBSERVED_STATE]
+
+    def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """Route each copy's fraction of its net power to its battery for ``decision_interval`` hours.
+
+        Args:
+            actions: One fraction in ``[0, 1]`` per copy.
+
+        Returns:
+            Batched observation, reward, terminated, truncated and ``info`` (arrays, one value per copy).
+        """
+        a = self._actions(actions)
+        n, s, t = self.num_envs, self.single, self.twin
+        hours = self._hours_numpy if self._kernel is None else self._hours_compiled
+        sums, terminated, truncated, obs, (soc, soh, temperature) = hours(a)
+        trading, degradation, clipping, cost = sums[:4]
+        energy = dict(zip(SUMS[4:], sums[4:], strict=True))
 
         wt, wd, wc = s._weights
         comps = {
