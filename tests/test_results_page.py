@@ -146,6 +146,25 @@ def test_every_number_of_the_page_is_recomputed_from_episodes_csv(tmp_path: Path
     assert manifest["code_version"] == "v1.0-3-gabc1234" and manifest["data_files"]["wds-v0-paper"][0]["path"]
 
 
+def test_the_suite_score_of_each_paper_agent_is_recomputed_from_episodes_csv(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    folder = _results_folder(out, "paper")
+    text = write_page(out, tmp_path / "page").read_text()
+    scores, _ = score_matrices(pd.read_csv(folder / "episodes.csv"))
+    random, best = stats.iqm(scores["random"]), stats.iqm(scores["default"])  # wds's best rule: `default`
+    runs = [(stats.iqm(row) - random) / (best - random) for row in scores["dqn"]]
+    expected = float(np.mean(runs))  # the IQM of three runs trims floor(0.25 * 3) = 0 of them at each end
+    gap = float(np.mean([max(0.0, 1.0 - r) for r in runs]))
+    row = next(line for line in text.splitlines() if line.startswith("| dqn | `wds-v0` | 3 |"))
+    assert f"| {expected:.3g} [" in row and f"| {gap:.3g} [" in row
+    assert "0 = random, 1 = `default`" in text
+
+
+def test_a_quick_budget_gives_no_suite_score(tmp_path: Path) -> None:
+    _results_folder(tmp_path / "out", "quick")
+    assert "## Suite score" not in write_page(tmp_path / "out", tmp_path / "page").read_text()
+
+
 def test_the_page_folder_alone_regenerates_the_page(tmp_path: Path) -> None:
     out, page = tmp_path / "out", tmp_path / "page"
     _results_folder(out, "paper")

@@ -18,6 +18,7 @@ from collections import Counter
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from gym4real.core import stats
@@ -298,6 +299,61 @@ def _method() -> list[str]:
     ]
 
 
+def suite_scores(sections: list[Section]) -> list[str]:
+    """The page's suite-score section: each paper agent's suite score over the paper-budget envs of the page.
+
+    Computed from the sections' ``episodes.csv`` alone, on the scale of :mod:`gym4real.core.suite_score`
+    (0 = ``random``, 1 = the env's best rule-based baseline), the same numbers ``gym4real evaluate`` prints
+    beside a user's agent.
+    """
+    from gym4real.core import stats, suite_score
+    from gym4real.core.benchmark import protocol
+    from gym4real.core.reference import read_scores
+
+    runs: dict[str, dict[str, np.ndarray]] = {}
+    scales: list[str] = []
+    for section in sections:
+        if section.budget != "paper":
+            continue
+        env_id = section.report["env_id"]
+        scores, seeds = read_scores(section.episodes, section.name)
+        anchors = {p: stats.iqm(m) for p, m in scores.items() if not seeds[p]}
+        env_scale = suite_score.scale(env_id, anchors, protocol(env_id).rule_based)
+        if not env_scale.usable:
+            scales.append(f"`{env_id}`: no scale ({env_scale.note})")
+            continue
+        scales.append(f"`{env_id}`: 0 = random, 1 = `{env_scale.best}`")
+        for policy, matrix in scores.items():
+            if seeds[policy]:
+                runs.setdefault(policy, {})[env_id] = suite_score.run_scores(matrix, env_scale)
+    if not runs:
+        return []
+    lines = [
+        "## Suite score of the paper agents",
+        "",
+        "Each run (a training seed on an env) scores the IQM of its test episodes on the env's scale: 0 is the "
+        "`random` baseline, 1 the env's best rule-based baseline. An agent's suite score is the IQM of its runs "
+        "over the envs it was trained on, with a stratified bootstrap (seeds resampled within each env) and its "
+        "optimality gap (mean shortfall below 1). `gym4real evaluate` puts your agent on the same scale. "
+        + "Scales: "
+        + "; ".join(scales)
+        + ".",
+        "",
+        "| agent | envs | runs | suite score (IQM) [95 % CI] | optimality gap [95 % CI] |",
+        "|---|---|---|---|---|",
+    ]
+    for policy, per_env in sorted(runs.items()):
+        parts = list(per_env.values())
+        iqm, low, high = suite_score.aggregate(parts, suite_score.iqm_of_rows)
+        gap, gap_low, gap_high = suite_score.aggregate(parts, suite_score.optimality_gap_of_rows)
+        envs = ", ".join(f"`{e.split('/', 1)[-1]}`" for e in per_env)
+        lines.append(
+            f"| {policy} | {envs} | {sum(len(p) for p in parts)} | {iqm:.3g} {_ci(low, high)} | "
+            f"{gap:.3g} {_ci(gap_low, gap_high)} |"
+        )
+    return [*lines, ""]
+
+
 def manifest(sections: list[Section], version: str) -> dict[str, Any]:
     """``manifest.json``: the page's code version, each section's, package versions, platform, data files."""
     main = next((s for s in sections if s.version == version), None)
@@ -343,6 +399,8 @@ def write_page(out: Path, page: str | Path | None = None) -> Path:
         "",
         *_method(),
         claims_table(claims, scales),
+        "",
+        *suite_scores(list(sections.values())),
     ]
     body: list[str] = []
     for folder in folders:
