@@ -176,6 +176,17 @@ def verdict_table(env_id: str | None = None) -> list[str]:
     return [*text[head[0] : head[0] + 2], *rows] if rows else []
 
 
+def suite_score_table() -> list[str]:
+    """The suite-score table of the results page (each paper agent's score on the 0 = random, 1 = best rule scale)."""
+    results = DOCS / "results" / "index.md"
+    text = results.read_text(encoding="utf-8").splitlines() if results.is_file() else []
+    head = [i for i, line in enumerate(text) if line.startswith("| agent | envs | runs | suite score")]
+    if not head:
+        return []
+    end = next((i for i in range(head[0], len(text)) if not text[i].startswith("|")), len(text))
+    return text[head[0] : end]
+
+
 def _reproduction(env_id: str) -> list[str]:
     """The env's rows of the results page's verdict table, when it has some."""
     table = verdict_table(env_id)
@@ -309,6 +320,13 @@ def main() -> None:
     (out / "index.md").write_text(environments_index(pages))
     (snippets / "gallery.md").write_text(gallery(pages, gifs))
     (snippets / "verdicts.md").write_text("\n".join([*verdict_table(), ""]))
+    scores = suite_score_table()
+    intro = "Suite score of the paper agents (0 = `random`, 1 = the env's best rule-based baseline; details on the "
+    (snippets / "suite-score.md").write_text(
+        "\n".join([intro + "[results page](results/index.md#suite-score-of-the-paper-agents)):", "", *scores, ""])
+        if scores
+        else "No paper-budget run on the results page yet: no suite score.\n"
+    )
     (snippets / "cite.md").write_text(citation())
     print(f"wrote {len(pages)} environment pages to {out} and the home page's snippets to {snippets}")
 

@@ -78,6 +78,14 @@ def test_home_verdicts_are_the_results_pages(load_script: Callable[[Path], Modul
     assert rows and table[0].startswith("| env | budget |") and table[2:] == rows
 
 
+def test_home_suite_scores_are_the_results_pages(load_script: Callable[[Path], ModuleType]) -> None:
+    gen_pages = load_script(ROOT / "docs" / "gen_pages.py")
+    results = (ROOT / "docs" / "results" / "index.md").read_text(encoding="utf-8")
+    rows = [line for line in results.splitlines() if re.match(r"\| [a-z_]+ \| `[a-z0-9-]+`", line)]
+    table = gen_pages.suite_score_table()
+    assert table[2:] == rows  # each paper agent's row, or none before a paper-budget run
+
+
 TUTORIAL = '''"""# Step the elevator
 
 A tutorial as the docs session runs them.
