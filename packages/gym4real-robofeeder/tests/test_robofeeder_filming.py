@@ -49,3 +49,20 @@ def test_record_films_the_whole_pick(tmp_path: Path, monkeypatch: pytest.MonkeyP
     caption = offered[0].shape[0] - start[0].shape[0]
     for shown, frame in zip(offered, [*start, *pick], strict=True):
         np.testing.assert_array_equal(shown[caption:], frame)
+
+
+def test_an_idle_planning_step_is_filmed_as_its_one_unchanged_frame() -> None:
+    from gym4real.robofeeder.planning import RoboFeederPlanningEnv
+
+    filmed = RoboFeederPlanningEnv(render_mode="rgb_array_list")
+    single = RoboFeederPlanningEnv(render_mode="rgb_array")
+    try:
+        for env in (filmed, single):
+            env.reset(seed=4)
+            env.render()
+            env.step(0)  # idle: ends the episode, moves nothing
+        (frame,) = filmed.render()  # the step's frame, so that a recording ends on the last step's caption
+        np.testing.assert_array_equal(frame, single.render())
+    finally:
+        filmed.close()
+        single.close()

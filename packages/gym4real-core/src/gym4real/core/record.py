@@ -80,7 +80,7 @@ def _mp4_writer_class() -> Any:
     return FFMPEG_VideoWriter
 
 
-def _render_mode(env_id: str) -> str:
+def recording_mode(env_id: str) -> str:
     """``rgb_array_list`` where the env's class declares it (frames within a step), else ``rgb_array``."""
     entry_point = gym.spec(env_id).entry_point
     creator = load_env_creator(entry_point) if isinstance(entry_point, str) else entry_point
@@ -145,7 +145,7 @@ def record(
         warnings.warn(f"{MP4_NEEDS_MOVIEPY}; writing the GIF only", NoMp4Warning, stacklevel=2)
     if fps is not None and not fps > 0:
         raise ConfigError(f"`fps` must be a positive number of frames per second, not {fps}")
-    kwargs: dict[str, Any] = {**(env_kwargs or {}), "render_mode": _render_mode(env_id)}
+    kwargs: dict[str, Any] = {**(env_kwargs or {}), "render_mode": recording_mode(env_id)}
     if max_steps is not None:
         kwargs["max_episode_steps"] = max_steps
     env = gym.make(env_id, **kwargs)

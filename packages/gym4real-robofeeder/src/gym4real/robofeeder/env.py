@@ -75,7 +75,8 @@ class RoboFeederBaseEnv(gym.Env[np.ndarray, Any]):
     def render(self) -> np.ndarray | list[RenderFrame] | None:
         """The colour view of `render_camera` (uint8, H x W x 3), or the frames since the last call.
 
-        ``rgb_array``: the last frame; ``rgb_array_list``: the frames since the last call (a whole pick per step).
+        ``rgb_array``: the last frame; ``rgb_array_list``: the frames since the last call (a whole pick per step;
+        at least one frame per step).
         """
         if self.render_mode == "rgb_array_list":
             frames, self._frames = self._frames, []

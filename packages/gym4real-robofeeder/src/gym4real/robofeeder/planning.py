@@ -190,6 +190,8 @@ class RoboFeederPlanningEnv(RoboFeederBaseEnv):
             comps["idle"] = -float(self.count_graspable())
             terminated = True
             obs = self._obs.copy()  # the reference does not refresh the observation
+            if self.render_mode == "rgb_array_list":  # the step's one frame: nothing moved
+                self._frames.append(self._view())
         else:
             slot = a - 1
             if not self._filled[slot] and self.config.fix("unfeasible_targets"):
