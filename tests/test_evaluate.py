@@ -89,7 +89,7 @@ def test_a_changed_env_version_is_refused(references: Path, tmp_path: Path) -> N
         gym4real.evaluate({"mine": "longest_first"}, [ENV], references=changed)
 
 
-def test_a_user_module_factory_per_seed_from_the_cli_without_shipped_references(
+def test_a_user_module_factory_per_seed_from_the_cli_with_the_shipped_references(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     (tmp_path / "my_agents.py").write_text(
@@ -114,7 +114,8 @@ def test_a_user_module_factory_per_seed_from_the_cli_without_shipped_references(
 
     assert my_agents.SEEDS == [0, 7]
     printed = capsys.readouterr().out
-    assert "none shipped with gym4real-elevator" in printed  # elevator ships no reference runs yet
+    assert "(reference runs: paper budget" in printed  # the elevator's, shipped with its distribution
+    assert "qlearning" in printed and "sarsa" in printed  # the paper agents beside the user's
     score = json.loads((out / "score.json").read_text())
     assert score["envs"][ENV]["seeds"] == 2 and score["aggregate"]["runs"] == 2
     assert score["scales"][ENV]["best_rule_based"] == "longest_first"
@@ -181,3 +182,10 @@ def test_bench_runs_a_user_module_factory_and_names_a_module_it_cannot_import(
     assert "bench_agents:always_up" in pd.read_csv(tmp_path / "out" / "summary.csv")["policy"].tolist()
     assert main([*args, "--policies", "no_such_module:factory"]) == 2
     assert "cannot import `no_such_module:factory`" in capsys.readouterr().err
+
+
+def test_an_env_without_shipped_references_is_compared_with_its_baselines_run_now() -> None:
+    evaluation = gym4real.evaluate({"mine": "flat"}, ["gym4real/trading-v0"])  # trading ships no reference runs
+    assert "none shipped with gym4real-trading" in evaluation.table()
+    assert evaluation.references() == []
+    assert evaluation.score()["envs"]["gym4real/trading-v0"]["normalized_iqm"] is not None

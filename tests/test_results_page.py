@@ -156,7 +156,7 @@ def test_the_suite_score_of_each_paper_agent_is_recomputed_from_episodes_csv(tmp
     expected = float(np.mean(runs))  # the IQM of three runs trims floor(0.25 * 3) = 0 of them at each end
     gap = float(np.mean([max(0.0, 1.0 - r) for r in runs]))
     row = next(line for line in text.splitlines() if line.startswith("| dqn | `wds-v0` | 3 |"))
-    assert f"| {expected:.3g} [" in row and f"| {gap:.3g} [" in row
+    assert f"| {expected:.4g} [" in row and f"| {gap:.4g} [" in row
     assert "0 = random, 1 = `default`" in text
 
 

@@ -64,3 +64,13 @@ def test_benchmark_of_the_baselines(tmp_path: Path) -> None:
     paths = evaluation.pnl_figures(result, tmp_path)
     for p in [*paths, tmp_path / "cumulative_reward.png", tmp_path / "returns_boxplot.png"]:
         assert p.stat().st_size > 5000
+
+
+def test_the_test_protocol_says_it_runs_on_the_hourly_stand_in() -> None:
+    from gym4real.core.benchmark import protocol
+    from gym4real.trading.config import TradingConfig
+
+    spec = protocol("gym4real/trading-v0")
+    config = TradingConfig.build(None, "test")
+    assert config.bar_minutes == 60 and "1h" in str(config.source.dataset)  # hourly bars, not the paper's minutes
+    assert "hourly EUR/USD stand-in" in spec.description and "minute data" in spec.description

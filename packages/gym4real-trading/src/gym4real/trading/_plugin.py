@@ -95,7 +95,8 @@ def gym4real_register_benchmarks() -> list[BenchmarkSpec | TrainingSpec]:
             objective=("pnl", "fees"),
             final_info=("cum_pnl", "cum_fees"),
             figures="gym4real.trading.evaluation:pnl_figures",
-            description="every trading day of the test split, in order (daily P&L in USD)",
+            description="every trading day of the test split, in order (daily P&L in USD), on the hourly EUR/USD "
+            "stand-in (2017-2018 hourly bars; the paper's 2019-2022 HistData minute data is fetched by users)",
             step_unit="hour of the trading day",
             claims=tuple(
                 claim

@@ -348,8 +348,8 @@ def suite_scores(sections: list[Section]) -> list[str]:
         gap, gap_low, gap_high = suite_score.aggregate(parts, suite_score.optimality_gap_of_rows)
         envs = ", ".join(f"`{e.split('/', 1)[-1]}`" for e in per_env)
         lines.append(
-            f"| {policy} | {envs} | {sum(len(p) for p in parts)} | {iqm:.3g} {_ci(low, high)} | "
-            f"{gap:.3g} {_ci(gap_low, gap_high)} |"
+            f"| {policy} | {envs} | {sum(len(p) for p in parts)} | {iqm:.4g} {_ci(low, high)} | "
+            f"{gap:.4g} {_ci(gap_low, gap_high)} |"
         )
     return [*lines, ""]
 
