@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib
+import math
 import operator
 from typing import Any
 
@@ -55,6 +56,26 @@ def per_copy(value: Any, num_envs: int, name: str) -> np.ndarray:
     if arr.shape != (num_envs,):
         raise ValueError(f"reset option `{name}` must be one value or {num_envs} (one per copy), not {value!r}")
     return arr
+
+
+def scalar_power(base: np.ndarray, exponent: float) -> np.ndarray:
+    """``base ** exponent`` element by element with the C library's ``pow``, as the single envs compute it.
+
+    NumPy's vectorised ``power`` may differ from ``pow`` in the last bit (about one value in twenty): the
+    numpy fallback of a batched env calls this where its single env raises a Python float to a power, so that
+    its numbers stay those of the single env. About 80 ns per value.
+    """
+    return np.fromiter(map(math.pow, base.ravel().tolist(), [exponent] * base.size), float, base.size).reshape(
+        base.shape
+    )
+
+
+def scalar_exp(x: np.ndarray) -> np.ndarray:
+    """``exp`` element by element with the C library's ``exp``, as the single envs compute it.
+
+    See :func:`scalar_power`.
+    """
+    return np.fromiter(map(math.exp, x.ravel().tolist()), float, x.size).reshape(x.shape)
 
 
 def with_masks(info: dict[str, Any], num_envs: int, present: np.ndarray | None = None) -> dict[str, Any]:

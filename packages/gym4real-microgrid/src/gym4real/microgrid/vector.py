@@ -21,7 +21,14 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from gym4real.core.actions import box_actions
-from gym4real.core.vector import check_max_episode_steps, compiled_kernel, copy_generators, with_masks
+from gym4real.core.vector import (
+    check_max_episode_steps,
+    compiled_kernel,
+    copy_generators,
+    scalar_exp,
+    scalar_power,
+    with_masks,
+)
 from gym4real.microgrid.aging import CYCLIC_FACTORS, AgingParams
 from gym4real.microgrid.battery import KELVIN, BatteryParams
 from gym4real.microgrid.config import MicrogridConfig
@@ -49,11 +56,11 @@ def _cycle_damage(p: AgingParams, dod: Array, mean_soc: Array, mean_temp: Array)
     for factor in p.cyclic:
         if factor == "dod_bolun":
             safe = np.where(dod > 0.0, dod, 1.0)
-            value = value * np.where(dod > 0.0, 1.0 / (p.k_delta1 * safe**p.k_delta2 + p.k_delta3), 0.0)
+            value = value * np.where(dod > 0.0, 1.0 / (p.k_delta1 * scalar_power(safe, p.k_delta2) + p.k_delta3), 0.0)
         elif factor == "soc":
-            value = value * np.exp(p.k_soc * (mean_soc - p.soc_ref))
+            value = value * scalar_exp(p.k_soc * (mean_soc - p.soc_ref))
         else:
-            value = value * np.exp(p.k_temp * (mean_temp - p.temp_ref) * (p.temp_ref / mean_temp))
+            value = value * scalar_exp(p.k_temp * (mean_temp - p.temp_ref) * (p.temp_ref / mean_temp))
     return value
 
 
@@ -265,17 +272,17 @@ class _Twin:
         if self._timed:
             stress: Array | float = 1.0
             if "soc" in ag.calendar:
-                stress = stress * np.exp(ag.k_soc * (0.5 * (soc0 + soc) - ag.soc_ref))
+                stress = stress * scalar_exp(ag.k_soc * (0.5 * (soc0 + soc) - ag.soc_ref))
             if "temperature" in ag.calendar:
                 mean_t = 0.5 * (temp0 + core)
-                stress = stress * np.exp(ag.k_temp * (mean_t - ag.temp_ref) * (ag.temp_ref / mean_t))
+                stress = stress * scalar_exp(ag.k_temp * (mean_t - ag.temp_ref) * (ag.temp_ref / mean_t))
             self.calendar += ag.k_t * dt * stress
         self.rainflow.push(soc, core)
         f_d = self.calendar + self.rainflow.total
         worse = f_d > self.damage
         np.copyto(self.damage, f_d, where=worse)
         alpha = ag.alpha_sei
-        deg = 1.0 - alpha * np.exp(-ag.beta_sei * f_d) - (1.0 - alpha) * np.exp(-f_d)
+        deg = 1.0 - alpha * scalar_exp(-ag.beta_sei * f_d) - (1.0 - alpha) * scalar_exp(-f_d)
         np.copyto(self.deg, deg, where=worse)
         np.subtract(self.soh0, self.deg, out=self.soh)
         np.multiply(p.nominal_capacity, self.soh, out=self.capacity)
