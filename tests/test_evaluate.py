@@ -19,8 +19,9 @@ from scipy import stats as sps
 
 import gym4real
 from gym4real.core.cli import main
+from gym4real.core.episodes import score_matrices
 from gym4real.core.errors import ConfigError, PolicyError, ReferenceMismatchError
-from gym4real.core.reference import load_reference, read_scores
+from gym4real.core.reference import load_reference
 
 ENV = "gym4real/elevator-v0"
 
@@ -141,7 +142,14 @@ def test_a_seed_asked_of_a_single_model_or_policy_object_is_refused(references: 
 @pytest.mark.parametrize(
     ("rows", "message"),
     [
-        ([{"policy": "a", "seed": 0, "episode": 0, "objective": 1.0}], "no column"),
+        ([{"policy": "a", "seed": 0, "episode": 0, "return": 1.0}], "no column"),
+        (
+            [
+                {"policy": "a", "seed": 0, "episode": 0, "objective": 1.0, "return": 1.0},
+                {"policy": "a", "seed": None, "episode": 0, "objective": 1.0, "return": 1.0},
+            ],
+            "with and without a seed",
+        ),
         (
             [
                 {"policy": "a", "seed": 0, "episode": 0, "objective": 1.0, "return": 1.0},
@@ -154,7 +162,7 @@ def test_a_seed_asked_of_a_single_model_or_policy_object_is_refused(references: 
 )
 def test_a_malformed_reference_table_is_refused(rows: list[dict[str, object]], message: str) -> None:
     with pytest.raises(ConfigError, match=message):
-        read_scores(pd.DataFrame(rows), "ref.csv")
+        score_matrices(pd.DataFrame(rows), "ref.csv")
 
 
 def test_the_tutorial_trains_a2c_on_two_envs_and_reads_its_score(

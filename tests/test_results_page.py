@@ -13,7 +13,7 @@ import pandas as pd
 import pytest
 
 from gym4real.core import stats
-from gym4real.core.rl.analysis import analyse, score_matrices
+from gym4real.core.rl.analysis import analyse
 from gym4real.core.rl.results_page import write_page
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -117,11 +117,24 @@ def _results_folder(out: Path, budget: str, version: str = "v1.0-3-gabc1234") ->
     return folder
 
 
+def _matrices(path: Path) -> tuple[dict[str, np.ndarray], set[str]]:
+    """Policy -> (seeds, episodes) objective matrix read with plain pandas, and the policies with seeds."""
+    frame = pd.read_csv(path)
+    scores, trained = {}, set()
+    for policy, rows in frame.groupby("policy", sort=False):
+        if rows["seed"].notna().any():
+            trained.add(str(policy))
+            scores[str(policy)] = rows.pivot(index="seed", columns="episode", values="objective").to_numpy()
+        else:
+            scores[str(policy)] = rows.sort_values("episode")["objective"].to_numpy()[None, :]
+    return scores, trained
+
+
 def test_every_number_of_the_page_is_recomputed_from_episodes_csv(tmp_path: Path) -> None:
     out = tmp_path / "out"
     folder = _results_folder(out, "paper")
     text = write_page(out, tmp_path / "page").read_text()
-    scores, trained = score_matrices(pd.read_csv(folder / "episodes.csv"))
+    scores, trained = _matrices(folder / "episodes.csv")
     assert trained == {"dqn"} and scores["dqn"].shape == (3, 20)
     scale = max(float(np.abs(m).max()) for m in scores.values())
     for name, matrix in scores.items():
@@ -150,7 +163,7 @@ def test_the_suite_score_of_each_paper_agent_is_recomputed_from_episodes_csv(tmp
     out = tmp_path / "out"
     folder = _results_folder(out, "paper")
     text = write_page(out, tmp_path / "page").read_text()
-    scores, _ = score_matrices(pd.read_csv(folder / "episodes.csv"))
+    scores, _ = _matrices(folder / "episodes.csv")
     random, best = stats.iqm(scores["random"]), stats.iqm(scores["default"])  # wds's best rule: `default`
     runs = [(stats.iqm(row) - random) / (best - random) for row in scores["dqn"]]
     expected = float(np.mean(runs))  # the IQM of three runs trims floor(0.25 * 3) = 0 of them at each end

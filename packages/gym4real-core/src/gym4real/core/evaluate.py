@@ -119,26 +119,8 @@ class Evaluation:
     def aggregate(self, policy: str) -> dict[str, Any]:
         """The policy's suite score: IQM, optimality gap and their stratified-bootstrap intervals (computed once)."""
         if policy not in self._aggregates:
-            self._aggregates[policy] = self._aggregate(policy)
+            self._aggregates[policy] = suite_score.summary(self.runs(policy))
         return self._aggregates[policy]
-
-    def _aggregate(self, policy: str) -> dict[str, Any]:
-        runs = self.runs(policy)
-        if not runs:
-            return {"iqm": None, "low": None, "high": None, "optimality_gap": None, "envs": []}
-        parts = list(runs.values())
-        iqm, low, high = suite_score.aggregate(parts, suite_score.iqm_of_rows)
-        gap, gap_low, gap_high = suite_score.aggregate(parts, suite_score.optimality_gap_of_rows)
-        return {
-            "iqm": iqm,
-            "low": low,
-            "high": high,
-            "optimality_gap": gap,
-            "optimality_gap_low": gap_low,
-            "optimality_gap_high": gap_high,
-            "envs": list(runs),
-            "runs": int(sum(len(r) for r in parts)),
-        }
 
     def record(self, agent: str) -> dict[str, Any]:
         """The agent's score record: ``{"envs": {...}, "aggregate": {...}}``."""

@@ -29,6 +29,7 @@ import numpy as np
 import pandas as pd
 
 from gym4real.core.benchmark import protocol
+from gym4real.core.episodes import score_matrices
 from gym4real.core.errors import ConfigError, ReferenceMismatchError
 from gym4real.core.policies import load_object
 from gym4real.core.registry import env_spec, registry
@@ -36,8 +37,6 @@ from gym4real.core.rl.plan import slug
 
 #: Folder of the reference files inside a domain package.
 FOLDER = "reference"
-#: Columns every reference CSV has (then the reward components).
-COLUMNS = ("policy", "seed", "episode", "objective", "return")
 #: Fingerprint fields, in the order differences are named.
 FINGERPRINT_FIELDS = (
     "env_id",
@@ -123,40 +122,6 @@ def check_fingerprint(reference: Reference, installed: dict[str, Any]) -> None:
         )
 
 
-def read_scores(frame: pd.DataFrame, source: str) -> tuple[dict[str, np.ndarray], dict[str, list[int]]]:
-    """Score matrices ``(seeds, episodes)`` and training seeds per policy from a reference table.
-
-    Raises:
-        ConfigError: A missing column, a non-finite objective, or a policy without the same test episodes
-            ``0..E-1`` for every seed (named).
-    """
-    missing = [c for c in COLUMNS if c not in frame.columns]
-    if missing:
-        raise ConfigError(f"`{source}` has no column {missing}; a reference table has the columns {list(COLUMNS)}")
-    objective = pd.to_numeric(frame["objective"], errors="coerce")
-    if not np.all(np.isfinite(objective)):
-        raise ConfigError(f"`{source}`: the column `objective` holds a missing or non-finite value")
-    frame = frame.assign(objective=objective.astype(float))
-    episodes = sorted(set(frame["episode"].astype(int)))
-    scores: dict[str, np.ndarray] = {}
-    seeds: dict[str, list[int]] = {}
-    for policy, rows in frame.groupby("policy", sort=False):
-        trained = bool(rows["seed"].notna().all())
-        if rows["seed"].notna().any() and not trained:
-            raise ConfigError(f"`{source}`: policy `{policy}` has rows with and without a seed; give every row one")
-        keyed = rows.assign(seed=rows["seed"].astype(int) if trained else 0, episode=rows["episode"].astype(int))
-        complete = keyed.groupby("seed")["episode"].agg(lambda e: sorted(e) == episodes).all()
-        if keyed.duplicated(["seed", "episode"]).any() or not complete:
-            raise ConfigError(
-                f"`{source}`: policy `{policy}` does not have one row per seed and test episode {episodes[0]}.."
-                f"{episodes[-1]}; write the table with every seed's every episode"
-            )
-        matrix = keyed.pivot(index="seed", columns="episode", values="objective")
-        scores[str(policy)] = matrix.to_numpy(dtype=float)
-        seeds[str(policy)] = [int(s) for s in matrix.index] if trained else []
-    return scores, seeds
-
-
 def domain_package(env_id: str) -> str:
     """The package of an environment's domain (``gym4real.dam``), where its reference files live."""
     return ".".join(env_spec(env_id).entry_point.split(":")[0].split(".")[:2])
@@ -176,7 +141,7 @@ def load_reference(env_id: str, folder: str | Path | None = None) -> Reference |
     if not record.is_file():
         raise ConfigError(f"`{table}` has no `{record.name}` beside it (the fingerprint of its protocol)")
     with table.open() as handle:
-        scores, seeds = read_scores(pd.read_csv(handle), str(table))
+        scores, seeds = score_matrices(pd.read_csv(handle), str(table))
     meta = json.loads(record.read_text())
     return Reference(
         env_id,
@@ -205,7 +170,7 @@ def export_reference(env_id: str, results: str | Path, budget: str = "paper", in
     if not table.is_file():
         raise ConfigError(f"no `{table}`: run `gym4real reproduce {env_id} --budget {budget}` into `{results}` first")
     frame = pd.read_csv(table)
-    scores, _ = read_scores(frame, str(table))
+    scores, _ = score_matrices(frame, str(table))
     spec = protocol(env_id)
     env = gym.make(env_id, **spec.env_kwargs)
     try:

@@ -146,6 +146,30 @@ def aggregate(
     return point, float(low), float(high)
 
 
+def summary(runs: Mapping[str, np.ndarray]) -> dict[str, Any]:
+    """An agent's suite score from its runs per environment (env id -> normalised run scores).
+
+    Returns the IQM and the optimality gap over every run, each with its stratified-bootstrap 95 % interval
+    (``iqm, low, high, optimality_gap, optimality_gap_low, optimality_gap_high``), the environments and
+    the number of runs; the numbers are None without any run.
+    """
+    if not runs:
+        return {"iqm": None, "low": None, "high": None, "optimality_gap": None, "envs": [], "runs": 0}
+    parts = list(runs.values())
+    iqm, low, high = aggregate(parts, iqm_of_rows)
+    gap, gap_low, gap_high = aggregate(parts, optimality_gap_of_rows)
+    return {
+        "iqm": iqm,
+        "low": low,
+        "high": high,
+        "optimality_gap": gap,
+        "optimality_gap_low": gap_low,
+        "optimality_gap_high": gap_high,
+        "envs": list(runs),
+        "runs": int(sum(len(r) for r in parts)),
+    }
+
+
 def suite_profile(
     runs: Sequence[np.ndarray], thresholds: np.ndarray, seed: int = 0
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

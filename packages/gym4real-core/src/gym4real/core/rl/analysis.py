@@ -21,33 +21,16 @@ import numpy as np
 import pandas as pd
 
 from gym4real.core import stats
+from gym4real.core.episodes import score_matrices
 from gym4real.core.rl.claims import check_claim, identical
 
 #: Thresholds of the performance profile.
 PROFILE_POINTS = 101
 
 
-def score_matrices(episodes: pd.DataFrame, column: str = "objective") -> tuple[dict[str, np.ndarray], set[str]]:
-    """Policy -> its ``(runs, episodes)`` matrix of ``column`` (in file order), and the trained policies.
-
-    A policy with seeds (an RL algorithm) has one row per seed, in increasing seed order; a baseline one row.
-
-    Raises:
-        ValueError: A policy lacks a seed's or an episode's score (the file is incomplete).
-    """
-    scores: dict[str, np.ndarray] = {}
-    trained: set[str] = set()
-    for policy, rows in episodes.groupby("policy", sort=False):
-        name = str(policy)
-        if rows["seed"].notna().any():
-            trained.add(name)
-            grid = rows.pivot(index="seed", columns="episode", values=column).sort_index()
-        else:
-            grid = rows.set_index("episode")[[column]].T
-        if grid.isna().any().any() or len(grid.columns) != episodes["episode"].nunique():
-            raise ValueError(f"episodes.csv: policy `{name}` lacks the {column} of some seed or test episode")
-        scores[name] = grid.sort_index(axis=1).to_numpy(dtype=float)
-    return scores, trained
+def _read(episodes: pd.DataFrame, column: str = "objective") -> tuple[dict[str, np.ndarray], dict[str, list[int]]]:
+    """The score matrices and training seeds of ``episodes.csv`` (:func:`gym4real.core.episodes.score_matrices`)."""
+    return score_matrices(episodes, "episodes.csv", column)
 
 
 def identical_to(scores: dict[str, np.ndarray]) -> dict[str, str]:
@@ -63,17 +46,17 @@ def identical_to(scores: dict[str, np.ndarray]) -> dict[str, str]:
 
 def summary(episodes: pd.DataFrame) -> pd.DataFrame:
     """``summary.csv``: per policy, IQM [95 % interval] of the objective, mean, spread, mean return."""
-    scores, trained = score_matrices(episodes)
-    returns, _ = score_matrices(episodes, "return")
+    scores, seeds = _read(episodes)
+    returns, _ = _read(episodes, "return")
     same = identical_to(scores)
     rows = []
     for name, matrix in scores.items():
-        value, low, high = stats.iqm_ci(matrix, name in trained)
+        value, low, high = stats.iqm_ci(matrix, bool(seeds[name]))
         rows.append(
             {
                 "policy": name,
-                "kind": "agent" if name in trained else "baseline",
-                "seeds": matrix.shape[0] if name in trained else 0,
+                "kind": "agent" if seeds[name] else "baseline",
+                "seeds": len(seeds[name]),
                 "episodes": matrix.shape[1],
                 "iqm": value,
                 "low": low,
@@ -89,12 +72,11 @@ def summary(episodes: pd.DataFrame) -> pd.DataFrame:
 
 def per_seed(episodes: pd.DataFrame, runs: pd.DataFrame | None) -> pd.DataFrame:
     """Per trained policy and seed: IQM and mean over test episodes, and the run's validation-selected checkpoint."""
-    scores, trained = score_matrices(episodes)
+    scores, seeds = _read(episodes)
     rows = []
-    for name in [n for n in scores if n in trained]:
-        seeds = sorted(episodes.loc[episodes["policy"] == name, "seed"].dropna().unique())
+    for name in [n for n in scores if seeds[n]]:
         iqms, means = stats.per_seed(scores[name])
-        for seed, iqm, mean in zip(seeds, iqms, means, strict=True):
+        for seed, iqm, mean in zip(seeds[name], iqms, means, strict=True):
             row: dict[str, Any] = {"policy": name, "seed": int(seed), "iqm": float(iqm), "mean": float(mean)}
             if runs is not None:
                 run = runs[(runs["algo"] == name) & (runs["seed"] == int(seed))]
@@ -107,10 +89,10 @@ def per_seed(episodes: pd.DataFrame, runs: pd.DataFrame | None) -> pd.DataFrame:
 
 def improvement(episodes: pd.DataFrame) -> pd.DataFrame:
     """``improvement.csv``: P(agent > baseline) with its 95 % interval, per RL algorithm and baseline."""
-    scores, trained = score_matrices(episodes)
+    scores, seeds = _read(episodes)
     rows = []
-    for agent in [n for n in scores if n in trained]:
-        for base in [n for n in scores if n not in trained]:
+    for agent in [n for n in scores if seeds[n]]:
+        for base in [n for n in scores if not seeds[n]]:
             p, low, high = stats.probability_of_improvement(scores[agent], scores[base], True, False)
             rows.append({"agent": agent, "baseline": base, "p": p, "low": low, "high": high})
     return pd.DataFrame(rows, columns=["agent", "baseline", "p", "low", "high"])
@@ -120,7 +102,8 @@ def check_claims(env_id: str, budget: str, episodes: pd.DataFrame) -> list[dict[
     """Every claim the env's protocol declares, checked on the scores of ``episodes``."""
     from gym4real.core.benchmark import protocol
 
-    scores, trained = score_matrices(episodes)
+    scores, seeds = _read(episodes)
+    trained = {n for n in scores if seeds[n]}
     return [{"env_id": env_id, "budget": budget, **check_claim(c, scores, trained)} for c in protocol(env_id).claims]
 
 
@@ -133,13 +116,13 @@ def profile_figure(episodes: pd.DataFrame, path: Path, title: str) -> None:
 
     from gym4real.core.plots import LINESTYLES, MARKERS
 
-    scores, trained = score_matrices(episodes)
+    scores, seeds = _read(episodes)
     same = identical_to(scores)
     every = np.concatenate([m.ravel() for m in scores.values()])
     tau = np.linspace(every.min(), every.max(), PROFILE_POINTS)
     fig, ax = plt.subplots(figsize=(8.5, 4.2))
     for i, (name, matrix) in enumerate(scores.items()):
-        point, low, high = stats.profile_band(matrix, name in trained, tau)
+        point, low, high = stats.profile_band(matrix, bool(seeds[name]), tau)
         (line,) = ax.step(
             tau,
             point,

@@ -308,7 +308,7 @@ def suite_scores(sections: list[Section]) -> list[str]:
     """
     from gym4real.core import stats, suite_score
     from gym4real.core.benchmark import protocol
-    from gym4real.core.reference import read_scores
+    from gym4real.core.episodes import score_matrices
 
     runs: dict[str, dict[str, np.ndarray]] = {}
     scales: list[str] = []
@@ -316,7 +316,7 @@ def suite_scores(sections: list[Section]) -> list[str]:
         if section.budget != "paper":
             continue
         env_id = section.report["env_id"]
-        scores, seeds = read_scores(section.episodes, section.name)
+        scores, seeds = score_matrices(section.episodes, section.name)
         anchors = {p: stats.iqm(m) for p, m in scores.items() if not seeds[p]}
         env_scale = suite_score.scale(env_id, anchors, protocol(env_id).rule_based)
         if not env_scale.usable:
@@ -343,13 +343,11 @@ def suite_scores(sections: list[Section]) -> list[str]:
         "|---|---|---|---|---|",
     ]
     for policy, per_env in sorted(runs.items()):
-        parts = list(per_env.values())
-        iqm, low, high = suite_score.aggregate(parts, suite_score.iqm_of_rows)
-        gap, gap_low, gap_high = suite_score.aggregate(parts, suite_score.optimality_gap_of_rows)
+        score = suite_score.summary(per_env)
         envs = ", ".join(f"`{e.split('/', 1)[-1]}`" for e in per_env)
         lines.append(
-            f"| {policy} | {envs} | {sum(len(p) for p in parts)} | {iqm:.4g} {_ci(low, high)} | "
-            f"{gap:.4g} {_ci(gap_low, gap_high)} |"
+            f"| {policy} | {envs} | {score['runs']} | {score['iqm']:.4g} {_ci(score['low'], score['high'])} | "
+            f"{score['optimality_gap']:.4g} {_ci(score['optimality_gap_low'], score['optimality_gap_high'])} |"
         )
     return [*lines, ""]
 
