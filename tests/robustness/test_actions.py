@@ -17,7 +17,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import gym4real
-from gym4real.core.actions import box_value, discrete_action, discrete_actions
+from gym4real.core.actions import DiscreteAction, box_value, discrete_action, discrete_actions
 from gym4real.core.errors import ActionError
 from gym4real.dam.vector import DamVectorEnv
 from gym4real.elevator.vector import ElevatorVectorEnv
@@ -180,18 +180,30 @@ INTEGER_TYPES = [int, np.int8, np.uint8, np.int16, np.uint16, np.int32, np.uint3
 @pytest.mark.parametrize("start", [0, -1, 2])
 @pytest.mark.parametrize("kind", INTEGER_TYPES)
 def test_the_fast_path_of_one_integer_accepts_exactly_the_space(start: int, kind: type) -> None:
-    """Brute force over values around the space (and the extremes of each type) against ``Discrete.contains``."""
+    """Brute force over values around the space (and the extremes of each type) against ``Discrete.contains``,
+    for the function and for an env's :class:`DiscreteAction` (its fast path for a Python int)."""
     space = spaces.Discrete(3, start=start)
     info = np.iinfo(kind) if kind is not int else None
     values = [v for v in range(start - 3, start + 6) if info is None or info.min <= v <= info.max]
     extremes = [10**30, -(10**30)] if info is None else [int(info.min), int(info.max)]
-    for v in values + extremes:
-        action = kind(v)
-        if space.contains(np.int64(v)) if abs(v) < 2**62 else False:
-            assert discrete_action(action, space, "m") == v and type(discrete_action(action, space, "m")) is int
-        else:
-            with pytest.raises(ActionError, match="outside"):
-                discrete_action(action, space, "m")
+    for check in (lambda a: discrete_action(a, space, "m"), DiscreteAction(space, "m")):
+        for v in values + extremes:
+            action = kind(v)
+            if space.contains(np.int64(v)) if abs(v) < 2**62 else False:
+                assert check(action) == v and type(check(action)) is int
+            else:
+                with pytest.raises(ActionError, match="outside"):
+                    check(action)
+
+
+@pytest.mark.parametrize("action", [True, False, 1.0, np.float64(1.0), "1", np.array([1, 1]), None, 1 + 0j])
+def test_an_envs_discrete_action_refuses_what_the_function_refuses(action: object) -> None:
+    space = spaces.Discrete(3)
+    with pytest.raises(ActionError) as by_function:
+        discrete_action(action, space, "0, 1 or 2")
+    with pytest.raises(ActionError) as by_check:
+        DiscreteAction(space, "0, 1 or 2")(action)
+    assert str(by_check.value) == str(by_function.value)
 
 
 @pytest.mark.parametrize("start", [0, -1, 2])

@@ -1,8 +1,8 @@
 """The one check of an action against an environment's action space, with the same error everywhere.
 
 Every environment's ``step`` (and every batched env's, per copy) passes its action through
-:func:`discrete_action` or :func:`box_action`. What is not in the action space raises
-:class:`~gym4real.core.errors.ActionError` (a ``ValueError``) naming the action, the space, what is
+:class:`DiscreteAction` (:func:`discrete_action` with a fast path) or :func:`box_action`. What is not in the
+action space raises :class:`~gym4real.core.errors.ActionError` (a ``ValueError``) naming the action, the space, what is
 wrong with it and what was expected:
 
 * a ``Discrete`` action is one integer (a Python ``int``, a numpy integer, or an integer array holding
@@ -70,6 +70,33 @@ def _as_array(action: Any, space: spaces.Space[Any], expected: str) -> np.ndarra
         raise _refuse(action, space, f"it is not an array of numbers ({exc})", expected) from None
 
 
+class DiscreteAction:
+    """:func:`discrete_action` of one env's ``Discrete`` space, with a fast path for a valid Python ``int``.
+
+    An env makes one in ``__init__`` and calls it in ``step``: ``action = self._action(action)``. The space's
+    bounds are read once, as Python ints, so the common valid action costs two comparisons; any other action
+    goes through :func:`discrete_action`, with all its checks and its errors.
+
+    Args:
+        space: The env's ``Discrete`` action space.
+        meaning: What the values mean, for the message (``"0 (down), 1 (open) or 2 (up)"``).
+    """
+
+    __slots__ = ("_high", "_low", "meaning", "space")
+
+    def __init__(self, space: spaces.Space[Any], meaning: str) -> None:
+        self.space = _kind(space, spaces.Discrete)
+        self.meaning = meaning
+        self._low = int(self.space.start)
+        self._high = self._low + int(self.space.n)
+
+    def __call__(self, action: Any) -> int:
+        """The action as an ``int`` of the space, or :class:`ActionError`."""
+        if type(action) is int and self._low <= action < self._high:
+            return action
+        return discrete_action(action, self.space, self.meaning)
+
+
 def discrete_action(action: Any, space: spaces.Space[Any], meaning: str) -> int:
     """The action as an ``int`` of ``space``, or :class:`ActionError`.
 
@@ -78,10 +105,6 @@ def discrete_action(action: Any, space: spaces.Space[Any], meaning: str) -> int:
         space: The env's ``Discrete`` action space.
         meaning: What the values mean, for the message (``"0 (down), 1 (open) or 2 (up)"``).
     """
-    if type(space) is spaces.Discrete and type(action) in _SCALAR_INTEGERS:  # the usual case, at once
-        low = space.start
-        if low <= action < low + space.n:
-            return int(action)
     space = _kind(space, spaces.Discrete)
     if type(action) is int or (isinstance(action, np.integer) and not isinstance(action, np.bool_)):
         value = int(action)

@@ -10,7 +10,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from gym4real.core.actions import discrete_action
+from gym4real.core.actions import DiscreteAction
 from gym4real.elevator import arrivals
 from gym4real.elevator.config import ElevatorConfig
 
@@ -123,6 +123,7 @@ class ElevatorEnv(gym.Env[dict[str, Any], int]):
 
         self._position_space = spaces.Discrete(self._top + 1)
         self.action_space = spaces.Discrete(3)  # type: ignore[assignment]
+        self._action = DiscreteAction(self.action_space, ACTIONS)
         self.observation_space = spaces.Dict(
             {
                 "arrivals": spaces.MultiDiscrete([f.max_arrivals + 1] * n),
@@ -219,7 +220,7 @@ class ElevatorEnv(gym.Env[dict[str, Any], int]):
 
     def step(self, action: int) -> tuple[dict[str, Any], float, bool, bool, dict[str, Any]]:
         """Move or open the doors, then let last second's arrivals join the queues."""
-        action = discrete_action(action, self.action_space, ACTIONS)
+        action = self._action(action)
         if action == UP:
             if self._pos < self._top:
                 self._pos += 1

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from gym4real.core.actions import discrete_action
+from gym4real.core.actions import DiscreteAction
 from gym4real.core.datasets import resolve
 from gym4real.core.errors import PolicyError
 from gym4real.robofeeder._plugin import PICKING_AGENT
@@ -85,6 +85,7 @@ class RoboFeederPlanningEnv(RoboFeederBaseEnv):
         cfg = self.config
         self.n_crops = cfg.n_crops
         self.action_space = spaces.Discrete(self.n_crops + 1)
+        self._action = DiscreteAction(self.action_space, f"0 (idle) or the crop 1..{self.n_crops} to pick from")
         self.observation_space = spaces.Box(0.0, 1.0, (self.n_crops, self.crop_size, self.crop_size), np.float32)
         self.picking_policy = picking_policy
         self._agent: Any = None
@@ -173,7 +174,7 @@ class RoboFeederPlanningEnv(RoboFeederBaseEnv):
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Idle (0) or let the picking agent grasp the object of crop ``action``."""
-        a = discrete_action(action, self.action_space, f"0 (idle) or the crop 1..{self.n_crops} to pick from")
+        a = self._action(action)
         comps = dict.fromkeys(self.reward_component_names, 0.0)
         info: dict[str, Any] = {
             "success": False,

@@ -11,7 +11,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from gym4real.core.actions import discrete_action
+from gym4real.core.actions import DiscreteAction
 from gym4real.core.perturbation import check_scales
 from gym4real.trading import features
 from gym4real.trading.config import TradingConfig
@@ -146,6 +146,7 @@ class TradingEnv(gym.Env[np.ndarray, Any]):
         self._terminate = not cfg.fix("truncate_at_close")
         dim = self._features.shape[2] + 1
         self.action_space = spaces.Discrete(3)
+        self._action = DiscreteAction(self.action_space, ACTIONS)
         self.observation_space = spaces.Box(-np.inf, np.inf, (dim,), self._dtype)
         self._day = -1
         self._load_day(0)
@@ -272,7 +273,7 @@ class TradingEnv(gym.Env[np.ndarray, Any]):
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Hold the chosen position over the next ``persistence`` minutes (see the class docstring)."""
-        a = discrete_action(action, self.action_space, ACTIONS)
+        a = self._action(action)
         k = self._k
         if k >= self.n_steps:
             raise RuntimeError("the trading day is over: call `reset()` before `step()`")

@@ -12,7 +12,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from gym4real.core.actions import discrete_action
+from gym4real.core.actions import DiscreteAction
 from gym4real.core.datasets import resolve
 from gym4real.core.errors import ConfigError
 from gym4real.core.perturbation import check_scales
@@ -257,9 +257,10 @@ class WDSEnv(gym.Env[np.ndarray, np.int64]):
         self._n_tanks, self._n_obs_junctions = n_t, n_j
         self.observation_space = spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
         self.action_space = spaces.Discrete(2**self._n_pumps)
-        self._actions = (
+        self._action = DiscreteAction(
+            self.action_space,
             f"0..{2**self._n_pumps - 1}, whose {self._n_pumps} bits (most significant first) open (1) or close (0) "
-            "the pumps"
+            "the pumps",
         )
         self.observation_names = (
             *net.tank_ids,
@@ -418,7 +419,7 @@ class WDSEnv(gym.Env[np.ndarray, np.int64]):
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Set the pumps, advance the hydraulics one decision interval (or one EPANET event upstream)."""
-        a = discrete_action(action, self.action_space, self._actions)
+        a = self._action(action)
         if self._done:
             raise RuntimeError("the episode has ended: call `reset()` before `step()`")
         self._apply(a)
