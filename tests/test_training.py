@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import gymnasium as gym
 import pandas as pd
@@ -281,11 +282,44 @@ def test_an_interrupted_sb3_run_resumes_from_its_checkpoint(tmp_path: Path) -> N
         train("gym4real/trading-v0", "dqn", str(path), seed=0, out=out, progress=stop_after_the_second_evaluation)
     state = json.loads((out / "checkpoint" / "state.json").read_text())
     assert state["timesteps"] == 272
-    with np.load(out / "checkpoint" / "buffer.npz") as buffer:
+    with np.load(out / "checkpoint" / state["slot"] / "buffer.npz") as buffer:
         # 272 steps of 2 envs are 136 rows; SB3 stores a step's row after calling back, so 135 are saved
         assert len(buffer["rewards"]) == 135
     run = train("gym4real/trading-v0", "dqn", str(path), seed=0, out=out)
     # DQN collects train_freq (4) steps of both envs at a time: the budget 408 is a multiple of 8
+    assert run.env_steps == 408 and not (out / "checkpoint").exists()
+    assert pd.read_csv(run.curve_csv)["timesteps"].tolist() == [136, 272, 408]
+
+
+def test_a_run_killed_while_writing_a_checkpoint_resumes_from_the_one_before(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A run killed halfway through writing its second checkpoint (a session's end, a lost node) resumes."""
+    pytest.importorskip("stable_baselines3")
+    import json
+
+    from stable_baselines3.common.base_class import BaseAlgorithm
+
+    path = tmp_path / "dqn.yaml"
+    path.write_text(TRADING_DQN)
+    original = BaseAlgorithm.save
+    checkpoints: list[str] = []
+
+    def dies_in_the_second_checkpoint(self: BaseAlgorithm, to: Any, *args: Any, **kwargs: Any) -> None:
+        if "checkpoint" in str(to):
+            checkpoints.append(str(to))
+            if len(checkpoints) == 2:  # half a model file written, then the process is gone
+                Path(to).write_bytes(b"PK\x03\x04 half a zip")
+                raise _Interrupt
+        original(self, to, *args, **kwargs)
+
+    monkeypatch.setattr(BaseAlgorithm, "save", dies_in_the_second_checkpoint)
+    out = tmp_path / "run"
+    with pytest.raises(_Interrupt):
+        train("gym4real/trading-v0", "dqn", str(path), seed=0, out=out)
+    assert json.loads((out / "checkpoint" / "state.json").read_text())["timesteps"] == 136
+    monkeypatch.setattr(BaseAlgorithm, "save", original)
+    run = train("gym4real/trading-v0", "dqn", str(path), seed=0, out=out)
     assert run.env_steps == 408 and not (out / "checkpoint").exists()
     assert pd.read_csv(run.curve_csv)["timesteps"].tolist() == [136, 272, 408]
 

@@ -305,16 +305,17 @@ def train_sb3(
     state = json.loads((checkpoint / "state.json").read_text()) if (checkpoint / "state.json").exists() else None
     model = _algorithm(algo_cls, hp, venv, seed if state is None else seed + int(state["timesteps"]), state)
     if state is not None:
+        saved = checkpoint / state.get("slot", "")  # (gym4real 0.2.0 wrote its files beside state.json)
         # the weights and optimizer states only (torch tensors, no pickle); the counters from state.json
-        model.set_parameters(str(checkpoint / "model.zip"), exact_match=True, device="cpu")
+        model.set_parameters(str(saved / "model.zip"), exact_match=True, device="cpu")
         model.num_timesteps = int(state["timesteps"])
         if hasattr(model, "_n_calls"):
             model._n_calls = int(state["n_calls"])
         if isinstance(venv, VecNormalize):
-            _load_normalization(venv, checkpoint / "normalize.npz")
+            _load_normalization(venv, saved / "normalize.npz")
         buffer = getattr(model, "replay_buffer", None)
-        if buffer is not None and (checkpoint / "buffer.npz").exists():
-            _load_buffer(buffer, checkpoint / "buffer.npz")
+        if buffer is not None and (saved / "buffer.npz").exists():
+            _load_buffer(buffer, saved / "buffer.npz")
     model_path = out / "model.zip"
     eval_freq, eval_episodes, eval_seed = int(hp["eval_freq"]), int(hp["eval_episodes"]), int(hp["eval_seed"])
     evaluation = BatchEvaluation(
@@ -330,6 +331,7 @@ def train_sb3(
             self.best = float(state["best"]) if state else -np.inf
             self.next_eval = int(state["next_eval"]) if state else min(eval_freq, total)
             self.eval_steps = int(state["eval_steps"]) if state else 0
+            self.slot = state.get("slot", "") if state else ""
 
         def _evaluate(self, save_checkpoint: bool = True) -> None:
             stats: dict[str, Any] | None = None
@@ -340,21 +342,32 @@ def train_sb3(
             mean = curve.add(self.num_timesteps, [float(r.sum()) for r in rewards])
             if mean > self.best:
                 self.best = mean
-                self.model.save(model_path)
                 if stats is not None:
-                    np.savez(out / "normalize.npz", **stats)
+                    np.savez(out / "normalize.tmp.npz", **stats)
+                    (out / "normalize.tmp.npz").replace(out / "normalize.npz")
+                self.model.save(out / "model.tmp.zip")
+                (out / "model.tmp.zip").replace(model_path)
             if save_checkpoint:
                 self._checkpoint()
 
         def _checkpoint(self) -> None:
-            checkpoint.mkdir(exist_ok=True)
-            self.model.save(checkpoint / "model.zip")
+            """Write the checkpoint into the slot the last one is not in, then name it in ``state.json``.
+
+            ``state.json`` is replaced last and at once, so a run killed at any moment (a session's end,
+            a lost node) still has the previous checkpoint whole and resumes from it.
+            """
+            slot = "b" if self.slot == "a" else "a"
+            folder = checkpoint / slot
+            shutil.rmtree(folder, ignore_errors=True)
+            folder.mkdir(parents=True)
+            self.model.save(folder / "model.zip")
             if isinstance(venv, VecNormalize):
-                _save_normalization(venv, checkpoint / "normalize.npz")
+                _save_normalization(venv, folder / "normalize.npz")
             buffer = getattr(self.model, "replay_buffer", None)
             if buffer is not None:
-                _save_buffer(buffer, checkpoint / "buffer.npz")
+                _save_buffer(buffer, folder / "buffer.npz")
             record = {
+                "slot": slot,
                 "timesteps": self.num_timesteps,
                 "n_calls": getattr(self.model, "_n_calls", 0),
                 "best": self.best,
@@ -364,6 +377,7 @@ def train_sb3(
             }
             (checkpoint / "state.tmp.json").write_text(json.dumps(record))
             (checkpoint / "state.tmp.json").replace(checkpoint / "state.json")
+            self.slot = slot
 
         def _on_step(self) -> bool:
             if progress is not None:
