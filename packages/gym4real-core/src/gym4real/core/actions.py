@@ -71,11 +71,11 @@ def _as_array(action: Any, space: spaces.Space[Any], expected: str) -> np.ndarra
 
 
 class DiscreteAction:
-    """:func:`discrete_action` of one env's ``Discrete`` space, with a fast path for a valid Python ``int``.
+    """:func:`discrete_action` of one env's ``Discrete`` space, with a fast path for a valid integer.
 
     An env makes one in ``__init__`` and calls it in ``step``: ``action = self._action(action)``. The space's
-    bounds are read once, as Python ints, so the common valid action costs two comparisons; any other action
-    goes through :func:`discrete_action`, with all its checks and its errors.
+    bounds are read once, as Python ints, so a valid Python or numpy integer costs a conversion and two
+    comparisons; any other action goes through :func:`discrete_action`, with all its checks and its errors.
 
     Args:
         space: The env's ``Discrete`` action space.
@@ -92,8 +92,10 @@ class DiscreteAction:
 
     def __call__(self, action: Any) -> int:
         """The action as an ``int`` of the space, or :class:`ActionError`."""
-        if type(action) is int and self._low <= action < self._high:
-            return action
+        if type(action) in _SCALAR_INTEGERS:  # a Python or numpy integer (what ``space.sample()`` gives)
+            value = int(action)
+            if self._low <= value < self._high:
+                return value
         return discrete_action(action, self.space, self.meaning)
 
 
