@@ -107,7 +107,11 @@ def test_cli_data_list_and_verify(capsys: pytest.CaptureFixture[str]) -> None:
     absent = _absent()
     listed = capsys.readouterr().out.splitlines()
     assert listed[0].split() == ["name", "size", "status", "found", "in"]
-    assert len(listed) == 1 + len(registry().datasets) + 2 + bool(absent)  # header, rows, searched, summary, fix
+    stand_ins = [s for s in registry().datasets.values() if s.stand_in_for]
+    # header, rows, a line per stand-in, searched, summary, fix
+    assert len(listed) == 1 + len(registry().datasets) + len(stand_ins) + 2 + bool(absent)
+    for spec in stand_ins:
+        assert f"{spec.name} is a stand-in for {spec.stand_in_for}" in listed
     assert main(["data", "verify"]) == (2 if absent else 0)
     out, err = capsys.readouterr()
     rows = out.splitlines()[1 : 1 + len(registry().datasets)]

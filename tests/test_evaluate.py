@@ -42,7 +42,8 @@ def references(tmp_path_factory: pytest.TempPathFactory, load_script: Callable[[
     folder = root / "results" / "elevator-v0-paper"
     folder.mkdir(parents=True)
     pd.DataFrame(rows).to_csv(folder / "episodes.csv", index=False)
-    (folder / "manifest.json").write_text(json.dumps({"command": "gym4real reproduce --budget paper"}))
+    provenance = {"code_version": "v1.0-3-gabc1234", "versions": {"gym4real-core": "0.2.0"}, "platform": "Linux"}
+    (folder / "report.json").write_text(json.dumps({"env_id": ENV, "budget": "paper", **provenance}))
     export = load_script(Path(__file__).resolve().parents[1] / "scripts" / "export_references.py")
     assert export.main([str(root / "results"), "--into", str(root / "reference")]) == 0  # finds elevator's table
     return root / "reference"
@@ -60,6 +61,11 @@ def test_the_best_rule_scores_exactly_one_random_zero_and_itself_one_half(refere
     # the reference agent's own suite score: IQM over its seeds of each seed's normalised IQM
     ref = load_reference(ENV, references)
     assert ref is not None
+    assert ref.manifest == {  # the provenance of the results section the reference runs come from
+        "code_version": "v1.0-3-gabc1234",
+        "versions": {"gym4real-core": "0.2.0"},
+        "platform": "Linux",
+    }
     low, top = (
         sps.trim_mean(ref.scores["random"], 0.25, axis=None),
         sps.trim_mean(ref.scores["longest_first"], 0.25, axis=None),
@@ -81,7 +87,7 @@ def test_a_changed_env_version_is_refused(references: Path, tmp_path: Path) -> N
     changed.mkdir()
     (changed / "elevator-v0.csv").write_bytes((references / "elevator-v0.csv").read_bytes())
     record = json.loads((references / "elevator-v0.json").read_text())
-    assert record["budget"] == "paper" and record["manifest"] == {"command": "gym4real reproduce --budget paper"}
+    assert record["budget"] == "paper" and record["manifest"]["code_version"] == "v1.0-3-gabc1234"
     assert record["fingerprint"]["episodes"] == 30 and record["fingerprint"]["fidelity"] == "corrected"
     installed = record["fingerprint"]["version"]
     record["fingerprint"]["version"] = "0.0.1"
@@ -192,8 +198,8 @@ def test_bench_runs_a_user_module_factory_and_names_a_module_it_cannot_import(
     assert "cannot import `no_such_module:factory`" in capsys.readouterr().err
 
 
-def test_an_env_without_shipped_references_is_compared_with_its_baselines_run_now() -> None:
-    evaluation = gym4real.evaluate({"mine": "flat"}, ["gym4real/trading-v0"])  # trading ships no reference runs
-    assert "none shipped with gym4real-trading" in evaluation.table()
+def test_an_env_without_reference_runs_is_compared_with_its_baselines_run_now(tmp_path: Path) -> None:
+    evaluation = gym4real.evaluate({"mine": "flat"}, ["gym4real/trading-v0"], references=tmp_path)  # none there
+    assert f"none in `{tmp_path}`: compared with the baselines run now" in evaluation.table()
     assert evaluation.references() == []
     assert evaluation.score()["envs"]["gym4real/trading-v0"]["normalized_iqm"] is not None

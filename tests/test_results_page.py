@@ -13,6 +13,7 @@ import pandas as pd
 import pytest
 
 from gym4real.core import stats
+from gym4real.core.registry import registry
 from gym4real.core.rl.analysis import analyse
 from gym4real.core.rl.results_page import write_page
 
@@ -157,6 +158,20 @@ def test_every_number_of_the_page_is_recomputed_from_episodes_csv(tmp_path: Path
     assert {"a", "b", "statistic", "estimate", "low", "high", "verdict", "rule"} <= set(p79)
     manifest = json.loads((tmp_path / "page" / "manifest.json").read_text())
     assert manifest["code_version"] == "v1.0-3-gabc1234" and manifest["data_files"]["wds-v0-paper"][0]["path"]
+
+
+def test_a_section_that_read_stand_in_data_says_so(tmp_path: Path) -> None:
+    """A data file registered as a stand-in (trading's hourly bars) is named as one; the paper's own data is not."""
+    stand_in = registry().datasets["trading/eurusd_1h_2017-2018"]
+    assert stand_in.stand_in_for  # registered as a stand-in
+    out = tmp_path / "out"
+    folder = _results_folder(out, "paper")
+    report = json.loads((folder / "report.json").read_text())
+    report["data_files"].append({"name": stand_in.name, "path": stand_in.path, "sha256": stand_in.sha256})
+    (folder / "report.json").write_text(json.dumps(report))
+    text = write_page(out, tmp_path / "page").read_text()
+    line = next(line for line in text.splitlines() if line.startswith("Data: 2 files"))
+    assert f"`{stand_in.name}` stands in for {stand_in.stand_in_for}" in line and "wds/network" not in line
 
 
 def test_the_suite_score_of_each_paper_agent_is_recomputed_from_episodes_csv(tmp_path: Path) -> None:

@@ -151,6 +151,9 @@ def run(action: str, names: Sequence[str], urls: bool = False) -> None:
     else:
         rows = [_row(spec, verify=action == "verify") for spec in specs]
     print(table(rows, urls))
+    for row in rows:
+        if row.spec.stand_in_for:
+            print(f"{row.spec.name} is a stand-in for {row.spec.stand_in_for}")
     print(places_text())
     line, fix = summary(rows, dead), _fix(rows, action, dead)
     if action != "list" and fix:

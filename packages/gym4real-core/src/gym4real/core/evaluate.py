@@ -328,7 +328,9 @@ def _run_agent(
     return matrix.to_numpy(dtype=float), frame
 
 
-def _reference_note(env_id: str) -> str:
+def _reference_note(env_id: str, references: str | Path | None) -> str:
+    if references is not None:
+        return f"none in `{references}`: compared with the baselines run now"
     plugin = registry().owners.get(env_id, "")
     dist, version = registry().distributions.get(plugin, ("its domain", "?"))
     return f"none shipped with {dist} {version}: compared with the baselines run now"
@@ -415,7 +417,9 @@ def evaluate(
             kinds,
             run_seeds,
             pd.concat(frames) if frames else pd.DataFrame(),
-            f"{reference.budget} budget, {reference.source}" if reference is not None else _reference_note(env_id),
+            f"{reference.budget} budget, {reference.source}"
+            if reference is not None
+            else _reference_note(env_id, references),
         )
     if out is not None:
         evaluation.save(out)

@@ -10,7 +10,7 @@ A domain distribution ships, for an environment ``gym4real/<name>``, two package
   distribution and version, fidelity, ``make()`` arguments, test episodes and objective).
 
 :func:`export_reference` writes them from a results folder of ``gym4real reproduce``
-(``<name>-<budget>/episodes.csv`` and ``manifest.json``; ``scripts/export_references.py``);
+(``<name>-<budget>/episodes.csv`` and the provenance in ``report.json``; ``scripts/export_references.py``);
 :func:`load_reference` reads them, and :func:`check_fingerprint` refuses reference runs measured on
 another protocol than the installed environment's, naming each difference.
 """
@@ -37,6 +37,8 @@ from gym4real.core.rl.plan import slug
 
 #: Folder of the reference files inside a domain package.
 FOLDER = "reference"
+#: The provenance of a results section (its ``report.json``) that a reference file keeps as its manifest.
+MANIFEST_FIELDS = ("command", "code_version", "versions", "platform", "data_files")
 #: Fingerprint fields, in the order differences are named.
 FINGERPRINT_FIELDS = (
     "env_id",
@@ -157,10 +159,11 @@ def load_reference(env_id: str, folder: str | Path | None = None) -> Reference |
 def export_reference(env_id: str, results: str | Path, budget: str = "paper", into: str | Path | None = None) -> Path:
     """Write the reference files of ``env_id`` from a results folder of ``gym4real reproduce``.
 
-    Reads ``results/<name>-<budget>/episodes.csv`` (and ``manifest.json`` beside it, if any), checks the
-    table, takes the fingerprint of the installed environment (whose test episodes the table must
-    have), and writes ``<name>.csv`` and ``<name>.json`` into ``into`` (default: the domain package's
-    ``reference/`` folder, the source tree in an editable checkout). Returns the CSV's path.
+    Reads ``results/<name>-<budget>/episodes.csv`` (and the provenance of ``report.json`` beside it: code
+    version, package versions, platform, data files and their SHA-256), checks the table, takes the
+    fingerprint of the installed environment (whose test episodes the table must have), and writes
+    ``<name>.csv`` and ``<name>.json`` into ``into`` (default: the domain package's ``reference/`` folder, the
+    source tree in an editable checkout). Returns the CSV's path.
 
     Raises:
         ConfigError: No such table, a malformed one, or one with another number of test episodes.
@@ -183,8 +186,9 @@ def export_reference(env_id: str, results: str | Path, budget: str = "paper", in
             f"`{table}` has {sorted(found)} test episodes per seed; the installed protocol of `{env_id}` has "
             f"{installed['episodes']}: rerun `gym4real reproduce` with this version"
         )
-    manifest_path = folder / "manifest.json"
-    manifest = json.loads(manifest_path.read_text()) if manifest_path.is_file() else {}
+    report_path = folder / "report.json"
+    report = json.loads(report_path.read_text()) if report_path.is_file() else {}
+    manifest = {k: report[k] for k in MANIFEST_FIELDS if k in report}
     target = Path(into) if into is not None else Path(str(resources.files(domain_package(env_id)))) / FOLDER
     target.mkdir(parents=True, exist_ok=True)
     written = target / f"{slug(env_id)}.csv"

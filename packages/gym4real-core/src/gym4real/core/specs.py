@@ -82,6 +82,8 @@ class DatasetSpec:
         url: Public upstream address of the file.
         licence: Licence of the data.
         description: One line on what the file holds.
+        stand_in_for: What data of the paper this file stands in for, when it is a stand-in (empty when it
+            is the paper's own data): the results page and ``gym4real data list`` label it so.
     """
 
     name: str
@@ -90,6 +92,7 @@ class DatasetSpec:
     url: str
     licence: str = ""
     description: str = ""
+    stand_in_for: str = ""
 
     def __post_init__(self) -> None:
         _check(bool(re.fullmatch(r"[0-9a-f]{64}", self.sha256)), f"dataset `{self.name}`: sha256 must be 64 hex digits")

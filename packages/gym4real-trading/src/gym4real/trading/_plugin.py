@@ -48,9 +48,13 @@ def gym4real_register_envs() -> list[EnvSpec]:
     ]
 
 
+#: What the hourly files stand in for.
+HISTDATA = "the paper's 2019-2022 EUR/USD one-minute HistData bars (`gym4real data fetch trading --years ...`)"
+
+
 @hookimpl
 def gym4real_register_datasets() -> list[DatasetSpec]:
-    """The two real hourly EUR/USD files (the paper's HistData files are fetched by users)."""
+    """The two real hourly EUR/USD files, stand-ins for the paper's minute data (fetched by users)."""
     return [
         DatasetSpec(
             name="trading/eurusd_1h_ask_2017",
@@ -59,6 +63,7 @@ def gym4real_register_datasets() -> list[DatasetSpec]:
             url="https://raw.githubusercontent.com/AminHP/gym-anytrading/master/gym_anytrading/datasets/data/FOREX_EURUSD_1H_ASK.csv",
             licence="MIT (gym-anytrading)",
             description="EUR/USD hourly ask OHLCV, 2017, Dukascopy export (UTC)",
+            stand_in_for=HISTDATA,
         ),
         DatasetSpec(
             name="trading/eurusd_1h_2017-2018",
@@ -67,6 +72,7 @@ def gym4real_register_datasets() -> list[DatasetSpec]:
             url="https://raw.githubusercontent.com/kernc/backtesting.py/0.6.6/backtesting/test/EURUSD.csv",
             licence="AGPL-3.0 (backtesting.py)",
             description="EUR/USD hourly OHLCV, 2017-04-19 .. 2018-02-07 (UTC)",
+            stand_in_for=HISTDATA,
         ),
     ]
 

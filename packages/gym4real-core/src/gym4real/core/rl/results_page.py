@@ -112,6 +112,22 @@ def _what_it_runs(env_id: str, budget: str) -> str:
     )
 
 
+def _data_read(report: dict[str, Any]) -> list[str]:
+    """The line on the data files a section's runs read, each stand-in named as one (and a blank line)."""
+    from gym4real.core.registry import registry
+
+    datasets, rows = registry().datasets, report.get("data_files", [])
+    stand_ins = [
+        f"`{row['name']}` stands in for {spec.stand_in_for}"
+        for row in rows
+        if (spec := datasets.get(row["name"])) is not None and spec.stand_in_for
+    ]
+    if not rows:
+        return []
+    line = f"Data: {len(rows)} files, each with its SHA-256 in `manifest.json`."
+    return [line + (f" **Stand-in data:** {'; '.join(stand_ins)}." if stand_ins else ""), ""]
+
+
 class Section:
     """The files of one finished results folder."""
 
@@ -171,6 +187,7 @@ def _section(folder: Path, section: Section | None, version: str) -> list[str]:
     lines += [
         f"Test protocol: {report['protocol']}. Objective (the score): {' + '.join(report['objective'])} per episode.",
         "",
+        *_data_read(report),
         f"Command (reuses the finished runs of its output folder): `{report['command']}`",
         "",
         f"Code version `{section.version}`; training presets "
