@@ -167,11 +167,26 @@ def test_a_section_that_read_stand_in_data_says_so(tmp_path: Path) -> None:
     out = tmp_path / "out"
     folder = _results_folder(out, "paper")
     report = json.loads((folder / "report.json").read_text())
-    report["data_files"].append({"name": stand_in.name, "path": stand_in.path, "sha256": stand_in.sha256})
+    report["data_files"] += [
+        {"name": stand_in.name, "path": stand_in.path, "sha256": stand_in.sha256, "found": "GYM4REAL_DATA_DIR"},
+        # absent at run time: microgrid trains on its synthetic stand-in then; wds has no stand-in
+        {
+            "name": "microgrid/demand/train",
+            "path": "microgrid/demand/profiles_train.csv",
+            "sha256": "1" * 64,
+            "found": "no",
+        },
+        {"name": "wds/demand/catalogue", "path": "wds/demand/catalogue.csv", "sha256": "2" * 64, "found": "no"},
+    ]
     (folder / "report.json").write_text(json.dumps(report))
     text = write_page(out, tmp_path / "page").read_text()
-    line = next(line for line in text.splitlines() if line.startswith("Data: 2 files"))
+    line = next(line for line in text.splitlines() if line.startswith("Data: 4 files"))
     assert f"`{stand_in.name}` stands in for {stand_in.stand_in_for}" in line and "wds/network" not in line
+    assert (
+        "`microgrid/demand/train` was not found at run time: a preset that trains on it read the synthetic "
+        "stand-in `microgrid/demand/profiles_train_standin.csv`" in line
+    )
+    assert "`wds/demand/catalogue` was not found at run time." in line
 
 
 def test_the_suite_score_of_each_paper_agent_is_recomputed_from_episodes_csv(tmp_path: Path) -> None:

@@ -127,17 +127,14 @@ def _cmd_data(args: argparse.Namespace) -> None:
 
 def _synthesize(args: argparse.Namespace) -> None:
     """A domain's stand-in for data published nowhere we can reach (microgrid), via ``gym4real.<d>.standin``."""
-    import importlib
-
-    from gym4real.core.datasets import cache_dir
+    from gym4real.core.datasets import cache_dir, standin_module
 
     if len(args.names) != 1:
         raise Gym4RealError("name one domain: `gym4real data synthesize microgrid`")
     domain = args.names[0]
-    try:
-        module = importlib.import_module(f"gym4real.{domain}.standin")
-    except ModuleNotFoundError as exc:
-        raise Gym4RealError(f"domain `{domain}` has no stand-in data (no `gym4real.{domain}.standin`)") from exc
+    module = standin_module(domain)
+    if module is None:
+        raise Gym4RealError(f"domain `{domain}` has no stand-in data (no `gym4real.{domain}.standin`)")
     kwargs = {k: getattr(args, k) for k in ("households", "seed") if getattr(args, k) is not None}
     bar = None
     if not args.quiet:

@@ -65,6 +65,20 @@ def sha256_of(path: Path) -> str:
     return _verified[key]
 
 
+def standin_module(domain: str) -> Any:
+    """``gym4real.<domain>.standin``, a domain's stand-in for data published nowhere we can reach, or None.
+
+    Such a module has ``PATH`` (where the stand-in lies under a data folder), ``STANDS_IN_FOR`` (the
+    registered file it replaces), ``synthesize(...)`` (``gym4real data synthesize``) and ``status()``.
+    """
+    import importlib
+
+    try:
+        return importlib.import_module(f"gym4real.{domain}.standin")
+    except ModuleNotFoundError:
+        return None
+
+
 def dataset(name: str) -> DatasetSpec:
     """Return the registered spec of a dataset name."""
     datasets = registry().datasets

@@ -131,14 +131,10 @@ def summary(env_id: str) -> dict[str, Any]:
 
 def _training_data(env_id: str) -> str | None:
     """The domain's word on its training data when part of it is a stand-in (``gym4real.<d>.standin.status``)."""
-    import importlib
+    from gym4real.core.datasets import standin_module
 
-    domain = env_id.split("/", 1)[-1].split("-", 1)[0]
-    try:
-        module = importlib.import_module(f"gym4real.{domain}.standin")
-    except ModuleNotFoundError:
-        return None
-    return str(module.status())
+    module = standin_module(env_id.split("/", 1)[-1].split("-", 1)[0])
+    return None if module is None else str(module.status())
 
 
 def _listing(names: list[str] | tuple[str, ...], most: int = 8) -> str:

@@ -48,6 +48,8 @@ HOUSEHOLDS = 370
 SEED = 2015
 #: Path of the stand-in under a data folder (beside the real ``demand/profiles_train.csv``).
 PATH = "microgrid/demand/profiles_train_standin.csv"
+#: The registered data file it stands in for (read in its place when that one is absent).
+STANDS_IN_FOR = "microgrid/demand/train"
 #: Share of Italian households by number of members (ISTAT, Annuario statistico italiano 2022; 5: five or more).
 HOUSEHOLD_SIZES = {1: 0.332, 2: 0.271, 3: 0.192, 4: 0.150, 5: 0.055}
 #: Annual consumption of ARERA's reference domestic customer, kWh.

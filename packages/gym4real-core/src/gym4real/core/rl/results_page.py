@@ -113,19 +113,37 @@ def _what_it_runs(env_id: str, budget: str) -> str:
 
 
 def _data_read(report: dict[str, Any]) -> list[str]:
-    """The line on the data files a section's runs read, each stand-in named as one (and a blank line)."""
+    """The line on the data files a section's runs read, each stand-in named as one (and a blank line).
+
+    A registered file that is a stand-in (``DatasetSpec.stand_in_for``) is named; so is a file that was not
+    found at run time, with the stand-in its domain reads in its place (``gym4real.<domain>.standin``,
+    written by ``gym4real data synthesize <domain>``) where there is one.
+    """
+    from gym4real.core.datasets import standin_module
     from gym4real.core.registry import registry
 
     datasets, rows = registry().datasets, report.get("data_files", [])
+    if not rows:
+        return []
     stand_ins = [
         f"`{row['name']}` stands in for {spec.stand_in_for}"
         for row in rows
         if (spec := datasets.get(row["name"])) is not None and spec.stand_in_for
     ]
-    if not rows:
-        return []
+    for row in rows:
+        if row.get("found") == "no":
+            domain = row["name"].split("/", 1)[0]
+            module = standin_module(domain)
+            if module is not None and getattr(module, "STANDS_IN_FOR", None) == row["name"]:
+                stand_ins.append(
+                    f"`{row['name']}` was not found at run time: a preset that trains on it read the synthetic "
+                    f"stand-in `{module.PATH}` instead (`gym4real data synthesize {domain}`; its provenance and "
+                    "SHA-256 in the `.json` beside it)"
+                )
+            else:
+                stand_ins.append(f"`{row['name']}` was not found at run time")
     line = f"Data: {len(rows)} files, each with its SHA-256 in `manifest.json`."
-    return [line + (f" **Stand-in data:** {'; '.join(stand_ins)}." if stand_ins else ""), ""]
+    return [line + (f" **Stand-ins and missing files:** {'; '.join(stand_ins)}." if stand_ins else ""), ""]
 
 
 class Section:
