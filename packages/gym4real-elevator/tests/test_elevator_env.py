@@ -78,11 +78,17 @@ def test_upstream_vector_draw_equals_the_reference_loop() -> None:
     assert all(np.array_equal(same[:, 0], same[:, k]) for k in range(1, 4))
 
 
+def _wait(env: ElevatorEnv, floor: int, people: int) -> None:
+    """Put ``people`` in the queue of ``floor`` (1..4), in the env's state and its observation."""
+    env._queues[floor] = people
+    env._queue_obs[floor - 1] = people
+    env._waiting = sum(env._queues)
+
+
 def _env_with_queue(fidelity: str, position_m: float) -> ElevatorEnv:
     env = ElevatorEnv(fidelity=fidelity, init_elevator_pos=position_m, floors={"lambda_min": 0, "lambda_max": 0})
     env.reset(seed=0)
-    env._queues[1] = 2  # two people wait at floor 1
-    env._queue_obs[0] = 2
+    _wait(env, 1, 2)  # two people wait at floor 1
     return env
 
 
@@ -125,7 +131,8 @@ def test_waiting_penalty_on_delivery_is_optional() -> None:
         init_elevator_pos=0.0, waiting_penalty_on_delivery=True, floors={"lambda_min": 0, "lambda_max": 0}
     )
     env.reset(seed=0)
-    env._load, env._queues[2], env._queue_obs[1] = 3, 1, 1
+    env._load = 3
+    _wait(env, 2, 1)
     _, reward, *_ = env.step(OPEN)
     assert reward == 30.0 - 1.0
 

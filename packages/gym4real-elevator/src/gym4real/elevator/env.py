@@ -152,6 +152,7 @@ class ElevatorEnv(gym.Env[dict[str, Any], int]):
         self._pos = position
         self._load = 0
         self._queues = [0] * self._n_floors
+        self._waiting = 0  # sum(self._queues), kept as they change
         self._queue_obs = np.zeros(len(self._served_floors), dtype=np.int64)  # mirror of the served queues
         self._futures = self._rows[0]
         self.delivered = 0
@@ -171,7 +172,7 @@ class ElevatorEnv(gym.Env[dict[str, Any], int]):
         """Passenger accounting: arrived = waiting + riding + delivered + turned_away + pending."""
         return {
             "arrived": self._arrived_cum[self._t],
-            "waiting": sum(self._queues),
+            "waiting": self._waiting,
             "riding": self._load,
             "delivered": self.delivered,
             "turned_away": self.turned_away,
@@ -236,11 +237,12 @@ class ElevatorEnv(gym.Env[dict[str, Any], int]):
             board = min(self._cap - self._load, self._queues[floor])
             if board:
                 self._queues[floor] -= board
+                self._waiting -= board
                 self._queue_obs[self._obs_index[floor]] -= board
                 self._load += board
 
         delivery = self._coeff * served
-        waiting = -float(self._load + sum(self._queues)) if (not served or self._always_wait_penalty) else 0.0
+        waiting = -float(self._load + self._waiting) if (not served or self._always_wait_penalty) else 0.0
 
         if self._any_arrival[self._t]:
             self._enqueue(self._futures)
@@ -261,6 +263,7 @@ class ElevatorEnv(gym.Env[dict[str, Any], int]):
                 wanting = (k + 1) // 2 if self._upstream else k  # upstream: every other arrival is lost
                 join = min(wanting, self._max_q - queues[floor])
                 queues[floor] += join
+                self._waiting += join
                 self._queue_obs[self._obs_index[floor]] += join
                 self.turned_away += k - join
 
