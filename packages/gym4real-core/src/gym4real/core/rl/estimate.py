@@ -28,20 +28,20 @@ def _per_unit(minutes: float, runs: int, units: int) -> float:
     return minutes * 60 / (runs * units)
 
 
-#: Seconds of one CPU per budget unit (timestep or episode), validation included, from the paper-budget
-#: runs of docs/results (gym4real-core 0.1.0 on a loaded 2-core machine, summed over seeds), and for
-#: picking-v1 from its quick runs (validation weighs more there: an upper bound), and for microgrid from
-#: a measure of its paper PPO on the same machine (1712 training steps/s with 8 envs; validation 1140
-#: steps/s; the paper preset validates on 10 one-year episodes, 8760 steps each, every 280,320 timesteps).
+#: Seconds of one CPU per budget unit (timestep or episode), validation included: the paper-budget runs of
+#: docs/results (code e4bd47b, two runs at a time on a 2-core machine; minutes summed over the seeds), for
+#: picking-v1 its quick runs (validation weighs more there: an upper bound), and for microgrid a measure of
+#: its paper PPO on the same machine (1712 training steps/s with 8 envs; validation 1140 steps/s; the paper
+#: preset validates on 10 one-year episodes, 8760 steps each, every 280,320 timesteps).
 RECORDED_S_PER_UNIT = {
-    ("gym4real/dam-v0", "ppo"): _per_unit(36.2, 5, 200_000),
-    ("gym4real/elevator-v0", "qlearning"): _per_unit(63.4, 5, 100_000),
-    ("gym4real/elevator-v0", "sarsa"): _per_unit(7.6, 5, 100_000),
-    ("gym4real/trading-v0", "dqn"): _per_unit(66.0, 6, 185_136),
-    ("gym4real/trading-v0", "ppo"): _per_unit(82.0, 6, 185_136),
-    ("gym4real/wds-v0", "dqn"): _per_unit(5.1, 5, 16_800),  # the 100-episode budget of 0.1: 100 x 168 steps
-    ("gym4real/robofeeder-picking-v0", "ppo"): _per_unit(47.6, 5, 15_000),
-    ("gym4real/robofeeder-planning-v0", "ppo"): _per_unit(47.7, 5, 10_000),
+    ("gym4real/dam-v0", "ppo"): _per_unit(28.7, 5, 200_000),
+    ("gym4real/elevator-v0", "qlearning"): _per_unit(9.3, 5, 100_000),
+    ("gym4real/elevator-v0", "sarsa"): _per_unit(5.2, 5, 100_000),
+    ("gym4real/trading-v0", "dqn"): _per_unit(8.1, 6, 185_136),
+    ("gym4real/trading-v0", "ppo"): _per_unit(143.5, 6, 185_136),
+    ("gym4real/wds-v0", "dqn"): _per_unit(9.5, 5, 134_400),
+    ("gym4real/robofeeder-picking-v0", "ppo"): _per_unit(74.3, 5, 15_000),
+    ("gym4real/robofeeder-planning-v0", "ppo"): _per_unit(43.7, 5, 10_000),
     ("gym4real/robofeeder-picking-v1", "ppo"): _per_unit(7.3, 2, 256),
     ("gym4real/microgrid-v0", "ppo"): 1 / 1712 + 10 * 8760 / 280_320 / 1140,
 }
