@@ -30,9 +30,7 @@ def _per_unit(minutes: float, runs: int, units: int) -> float:
 
 #: Seconds of one CPU per budget unit (timestep or episode), validation included: the paper-budget runs of
 #: docs/results (code e4bd47b, two runs at a time on a 2-core machine; minutes summed over the seeds), for
-#: picking-v1 its quick runs (validation weighs more there: an upper bound), and for microgrid a measure of
-#: its paper PPO on the same machine (1712 training steps/s with 8 envs; validation 1140 steps/s; the paper
-#: preset validates on 10 one-year episodes, 8760 steps each, every 280,320 timesteps).
+#: picking-v1 its quick runs (validation weighs more there: an upper bound).
 RECORDED_S_PER_UNIT = {
     ("gym4real/dam-v0", "ppo"): _per_unit(28.7, 5, 200_000),
     ("gym4real/elevator-v0", "qlearning"): _per_unit(9.3, 5, 100_000),
@@ -43,7 +41,7 @@ RECORDED_S_PER_UNIT = {
     ("gym4real/robofeeder-picking-v0", "ppo"): _per_unit(74.3, 5, 15_000),
     ("gym4real/robofeeder-planning-v0", "ppo"): _per_unit(43.7, 5, 10_000),
     ("gym4real/robofeeder-picking-v1", "ppo"): _per_unit(7.3, 2, 256),
-    ("gym4real/microgrid-v0", "ppo"): 1 / 1712 + 10 * 8760 / 280_320 / 1140,
+    ("gym4real/microgrid-v0", "ppo"): _per_unit(64.0, 1, 28_051_200),
 }
 
 
