@@ -21,6 +21,7 @@ import numpy as np
 from gym4real.core.errors import ConfigError, PolicyError
 from gym4real.core.rl.progress import Progress
 from gym4real.core.rl.schedules import Constant, KLAdaptive, KLAdaptiveRate, schedule
+from gym4real.core.rl.storage import write_whole
 
 #: PyTorch's index of CPU-only wheels.
 TORCH_CPU_INDEX = "https://download.pytorch.org/whl/cpu"
@@ -343,10 +344,8 @@ def train_sb3(
             if mean > self.best:
                 self.best = mean
                 if stats is not None:
-                    np.savez(out / "normalize.tmp.npz", **stats)
-                    (out / "normalize.tmp.npz").replace(out / "normalize.npz")
-                self.model.save(out / "model.tmp.zip")
-                (out / "model.tmp.zip").replace(model_path)
+                    write_whole(out / "normalize.npz", lambda tmp: np.savez(tmp, **stats))
+                write_whole(model_path, self.model.save)
             if save_checkpoint:
                 self._checkpoint()
 
@@ -375,8 +374,7 @@ def train_sb3(
                 "eval_steps": self.eval_steps,
                 **algorithm_state(self.model),
             }
-            (checkpoint / "state.tmp.json").write_text(json.dumps(record))
-            (checkpoint / "state.tmp.json").replace(checkpoint / "state.json")
+            write_whole(checkpoint / "state.json", lambda tmp: tmp.write_text(json.dumps(record)))
             self.slot = slot
 
         def _on_step(self) -> bool:

@@ -11,6 +11,7 @@ written whole (to a temporary name, then moved), and a run's markers last: its c
 from __future__ import annotations
 
 import shutil
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -19,6 +20,16 @@ from gym4real.core.errors import Gym4RealError
 #: Files written after all others, in this order: a run's checkpoint state, then its record of a finished run.
 MARKERS = ("checkpoint/state.json", "checkpoint.npz", "run.json")
 _PARTIAL = ".partial"
+
+
+def write_whole(path: Path, write: Callable[[Path], object]) -> None:
+    """``write`` the file to a temporary name beside ``path``, then move it there at once.
+
+    A process killed midway leaves the previous ``path`` whole (a checkpoint, a best model), never half a file.
+    """
+    tmp = path.with_name(f"{path.stem}.tmp{path.suffix}")
+    write(tmp)
+    tmp.replace(path)
 
 
 def _pyarrow_fs() -> Any:

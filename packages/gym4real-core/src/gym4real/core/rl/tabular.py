@@ -28,6 +28,7 @@ from gymnasium import spaces
 
 from gym4real.core.errors import PolicyError
 from gym4real.core.rl.progress import Progress
+from gym4real.core.rl.storage import write_whole
 
 
 class StateIndexer:
@@ -194,9 +195,7 @@ class _Checkpoint:
 
     def save(self, **state: Any) -> None:
         rng = state.pop("rng")
-        tmp = self.path.with_name("checkpoint.tmp.npz")
-        np.savez(tmp, rng=np.array(json.dumps(rng.bit_generator.state)), **state)
-        tmp.replace(self.path)
+        write_whole(self.path, lambda tmp: np.savez(tmp, rng=np.array(json.dumps(rng.bit_generator.state)), **state))
 
     def load(self, rng: np.random.Generator) -> dict[str, Any] | None:
         if not self.path.exists():
