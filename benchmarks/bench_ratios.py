@@ -13,10 +13,14 @@ alike); reported: the median of the rounds' ratios with its quartiles, and the r
 
 A native batch resets all its copies together once per episode, which short blocks rarely include:
 ``best_with_resets`` adds an unseeded ``reset()`` spread over the episode's steps to the fastest block.
-Each row gives the goal of issue 25 where there is one and whether ``best`` meets it: on a machine shared
-with other work, processes are descheduled for milliseconds at a time, which inflates whole blocks and
-makes the medians of short blocks wander; the fastest blocks are the ones that ran undisturbed. On a quiet
-machine the median and ``best`` agree.
+Each row gives the goal of issue 25 where there is one and whether the median meets it, as the issue
+measures it (on a quiet machine). ``best`` is the ratio of the fastest blocks: on a machine shared with
+other work, processes are descheduled for milliseconds at a time, which inflates whole blocks and makes the
+medians wander, and the fastest blocks are the ones that ran undisturbed. On a quiet machine the median and
+``best`` agree unless the work of a step changes along the episode: the batched dam's days cost more in
+the months its copies' levels are on the rating curve (the release then follows the level, and every
+sub-step evaluates libm's ``pow``), so its blocks from the cheap months give ``best`` and the median is
+the year's typical day.
 
     python benchmarks/bench_ratios.py [--ids gym4real/dam-v0,...] [--rounds 61] [--steps 300] [--json out.json]
 """
@@ -106,7 +110,7 @@ def _row(
         "best": best,
         "best_with_resets": "",
         "goal": "" if goal is None else (">= " if higher_is_better else "<= ") + f"{goal:g}",
-        "met": "" if goal is None else str(best >= goal if higher_is_better else best <= goal),
+        "met": "" if goal is None else str(median >= goal if higher_is_better else median <= goal),
     }
 
 

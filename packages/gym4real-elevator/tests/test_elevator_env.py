@@ -110,7 +110,7 @@ def test_upstream_doors_open_between_floors_and_board_the_floor_below() -> None:
 def test_queue_transfer_of_two_simultaneous_arrivals(fidelity: str, joined: int) -> None:
     env = ElevatorEnv(fidelity=fidelity, init_elevator_pos=0.0)
     env.reset(seed=0)
-    env._futures = [2, 0, 0, 0]
+    env._rows[0] = [2, 0, 0, 0]
     env._any_arrival[0] = True
     env.step(DOWN)  # no move at the bottom
     assert env._queues[1] == joined
