@@ -175,6 +175,7 @@ def test_a_section_that_read_stand_in_data_says_so(tmp_path: Path) -> None:
             "path": "microgrid/demand/profiles_train.csv",
             "sha256": "1" * 64,
             "found": "no",
+            "read_instead": {"path": "microgrid/demand/profiles_train_standin.csv", "sha256": "3" * 64, "found": "x"},
         },
         {"name": "wds/demand/catalogue", "path": "wds/demand/catalogue.csv", "sha256": "2" * 64, "found": "no"},
     ]
@@ -184,8 +185,12 @@ def test_a_section_that_read_stand_in_data_says_so(tmp_path: Path) -> None:
     assert f"`{stand_in.name}` stands in for {stand_in.stand_in_for}" in line and "wds/network" not in line
     assert (
         "`microgrid/demand/train` was not found at run time: a preset that trains on it read the synthetic "
-        "stand-in `microgrid/demand/profiles_train_standin.csv`" in line
+        "stand-in `microgrid/demand/profiles_train_standin.csv` instead (`gym4real data synthesize microgrid`; "
+        f"SHA-256 `{'3' * 12}…` in `manifest.json`)" in line
     )
+    manifest = json.loads((tmp_path / "page" / "manifest.json").read_text())
+    read = next(r for r in manifest["data_files"]["wds-v0-paper"] if r["name"] == "microgrid/demand/train")
+    assert read["read_instead"]["sha256"] == "3" * 64
     assert "`wds/demand/catalogue` was not found at run time." in line
 
 

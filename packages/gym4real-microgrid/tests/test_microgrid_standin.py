@@ -46,6 +46,20 @@ def test_the_train_preset_runs_on_the_stand_in_and_says_so(tmp_path: Path, monke
     assert path.exists()
 
 
+def test_the_provenance_of_a_run_records_the_stand_in_it_reads_with_its_hash(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from gym4real.core.rl.provenance import data_files
+
+    monkeypatch.setenv("GYM4REAL_CACHE_DIR", str(tmp_path / "cache"))
+    row = next(r for r in data_files("gym4real/microgrid-v0") if r["name"] == standin.STANDS_IN_FOR)
+    assert row["found"] == "no" and "read_instead" not in row  # neither file: nothing read in its place
+    path = _fake_standin(tmp_path / "cache")
+    row = next(r for r in data_files("gym4real/microgrid-v0") if r["name"] == standin.STANDS_IN_FOR)
+    assert row["found"] == "no"
+    assert row["read_instead"] == {"path": standin.PATH, "sha256": sha256_of(path), "found": "user cache"}
+
+
 def test_the_real_training_file_is_preferred_to_the_stand_in(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("GYM4REAL_CACHE_DIR", str(tmp_path / "cache"))
     _fake_standin(tmp_path / "cache", households=3)

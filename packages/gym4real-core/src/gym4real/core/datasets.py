@@ -115,6 +115,14 @@ def find(name: str, data_dir: str | Path | None = None) -> Copy | None:
     return None
 
 
+def find_stand_in(module: Any, data_dir: str | Path | None = None) -> Copy | None:
+    """Return the first copy of a domain's stand-in (``module.PATH``, :func:`standin_module`) in the places searched."""
+    for where, folder in places(data_dir):
+        if (folder / module.PATH).is_file():
+            return Copy(where, folder / module.PATH)
+    return None
+
+
 def is_intact(spec: DatasetSpec, path: Path) -> bool:
     """Whether a file has the SHA-256 registered for it."""
     return sha256_of(path) == spec.sha256

@@ -59,13 +59,11 @@ def training_demand(data_dir: str | Path | None) -> tuple[Path, str]:
     Raises:
         DataFileError: Neither is found; the message gives both fixes.
     """
-    from gym4real.core.datasets import find, places
-    from gym4real.microgrid.standin import PATH
+    from gym4real.core.datasets import find, find_stand_in
+    from gym4real.microgrid import standin
 
-    if find(f"{DOMAIN}/{TRAIN_DEMAND}", data_dir) is None:
-        for _, folder in places(data_dir):
-            if (folder / PATH).is_file():
-                return folder / PATH, "stand-in"
+    if find(f"{DOMAIN}/{TRAIN_DEMAND}", data_dir) is None and (copy := find_stand_in(standin, data_dir)) is not None:
+        return copy.path, "stand-in"
     try:
         return data_path(TRAIN_DEMAND, data_dir), "real"
     except DataFileError as exc:

@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import platform
 from importlib import metadata
+from typing import Any
 
 import pandas as pd
 
@@ -54,26 +55,32 @@ def versions() -> dict[str, str]:
     return dict(sorted(found.items()))
 
 
-def data_files(env_id: str) -> list[dict[str, str]]:
+def data_files(env_id: str) -> list[dict[str, Any]]:
     """The data files ``env_id`` declares: name, path in a data folder, SHA-256 (of the copy found, if any).
 
     Every file an env reads is checked against its registered SHA-256 when it is resolved, so the hash of
-    a file read is the registered one; a file not found here says so (``found: no``).
+    a file read is the registered one; a file not found here says so (``found: no``). A missing file that
+    its domain's stand-in replaces (``gym4real data synthesize``) names the stand-in found in its place,
+    with the SHA-256 of that copy (``read_instead``): the file a preset that trains on it reads.
     """
-    from gym4real.core.datasets import dataset, find, sha256_of
+    from gym4real.core.datasets import dataset, find, find_stand_in, sha256_of, standin_module
     from gym4real.core.registry import registry
 
-    rows = []
+    rows: list[dict[str, Any]] = []
     for name in registry().envs[env_id].datasets:
         spec, copy = dataset(name), find(name)
-        rows.append(
-            {
-                "name": name,
-                "path": spec.path,
-                "sha256": sha256_of(copy.path) if copy else spec.sha256,
-                "found": copy.where if copy else "no",
-            }
-        )
+        row: dict[str, Any] = {
+            "name": name,
+            "path": spec.path,
+            "sha256": sha256_of(copy.path) if copy else spec.sha256,
+            "found": copy.where if copy else "no",
+        }
+        module = standin_module(name.split("/", 1)[0])
+        if copy is None and module is not None and name == module.STANDS_IN_FOR:
+            stand_in = find_stand_in(module)
+            if stand_in is not None:
+                row["read_instead"] = {"path": module.PATH, "sha256": sha256_of(stand_in.path), "found": stand_in.where}
+        rows.append(row)
     return rows
 
 

@@ -137,13 +137,21 @@ def _data_read(report: dict[str, Any]) -> list[str]:
             if module is not None and getattr(module, "STANDS_IN_FOR", None) == row["name"]:
                 stand_ins.append(
                     f"`{row['name']}` was not found at run time: a preset that trains on it read the synthetic "
-                    f"stand-in `{module.PATH}` instead (`gym4real data synthesize {domain}`; its provenance and "
-                    "SHA-256 in the `.json` beside it)"
+                    f"stand-in `{module.PATH}` instead (`gym4real data synthesize {domain}`; {_stand_in_hash(row)})"
                 )
             else:
                 stand_ins.append(f"`{row['name']}` was not found at run time")
     line = f"Data: {len(rows)} files, each with its SHA-256 in `manifest.json`."
     return [line + (f" **Stand-ins and missing files:** {'; '.join(stand_ins)}." if stand_ins else ""), ""]
+
+
+def _stand_in_hash(row: dict[str, Any]) -> str:
+    """Where the SHA-256 of the stand-in a run read in place of ``row``'s file is recorded."""
+    read = row.get("read_instead")
+    if read is None:  # recorded before reproduce named the stand-in it read
+        return "its provenance and SHA-256 in the `.json` beside it, not recorded with this run"
+    when = f", recorded {read['recorded']}" if read.get("recorded") else ""
+    return f"SHA-256 `{read['sha256'][:12]}…` in `manifest.json`{when}"
 
 
 class Section:
