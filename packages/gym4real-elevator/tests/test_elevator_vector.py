@@ -10,7 +10,7 @@ import pytest
 
 import gym4real  # noqa: F401
 from gym4real.core.testing import compare_vector_with_sync
-from gym4real.elevator import ElevatorEnv
+from gym4real.elevator import ElevatorEnv, arrivals
 from gym4real.elevator.vector import ElevatorVectorEnv
 
 NEEDS_NUMBA = pytest.mark.skipif(importlib.util.find_spec("numba") is None, reason="numba (extra fast) not installed")
@@ -88,3 +88,30 @@ def test_compiled_true_without_numba_names_the_extra(monkeypatch: pytest.MonkeyP
     with pytest.raises(ImportError, match=r"gym4real-elevator\[fast\]"):
         ElevatorVectorEnv(2, compiled=True)
     assert ElevatorVectorEnv(2)._kernel is None  # the default falls back to numpy
+
+
+@pytest.mark.parametrize("compiled", [pytest.param(True, marks=NEEDS_NUMBA), False])
+@pytest.mark.parametrize(
+    ("rates", "cap"), [([0.01, 0.05, 0.1, 0.0], 2), ([0.5, 3.0, 9.99], 1000), ([0.2, 12.0, 40.0], 100)]
+)
+def test_arrivals_are_numpys_poisson_draws_from_the_episode_generator(
+    compiled: bool, rates: list[float], cap: int
+) -> None:
+    """Compiled (numpy's method below rate 10, numpy itself from 10 on) or numpy: ``rng.poisson`` per floor."""
+    mine, reference = np.random.default_rng(7), np.random.default_rng(7)
+    counts = arrivals.corrected_arrivals(mine, np.array(rates), 3000, cap, compiled=compiled)
+    expected = np.minimum(np.stack([reference.poisson(rate, size=3000) for rate in rates], axis=1), cap)
+    np.testing.assert_array_equal(counts, expected)
+    assert mine.random() == reference.random()  # the generator advanced as numpy's draws advance it
+
+
+def test_compiled_arrivals_without_numba_name_the_extra(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setitem(sys.modules, "gym4real.elevator.arrivals_kernel", None)  # as if numba were missing
+    arrivals._compiled.cache_clear()
+    try:
+        with pytest.raises(ImportError, match=r"gym4real-elevator\[fast\]"):
+            arrivals.corrected_arrivals(np.random.default_rng(0), np.array([0.1]), 10, 2, compiled=True)
+        counts = arrivals.corrected_arrivals(np.random.default_rng(0), np.array([0.1]), 10, 2)  # numpy instead
+        np.testing.assert_array_equal(counts[:, 0], np.minimum(np.random.default_rng(0).poisson(0.1, 10), 2))
+    finally:
+        arrivals._compiled.cache_clear()

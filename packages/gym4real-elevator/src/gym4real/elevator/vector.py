@@ -101,7 +101,9 @@ class ElevatorVectorEnv(VectorEnv[dict[str, Any], np.ndarray, np.ndarray]):
         self._rngs = copy_generators(self, self._rngs, seed)
         for i, rng in enumerate(self._rngs):
             rates = arrivals.draw_rates(rng, len(self._served), f.lambda_min, f.lambda_max)
-            table[i, :-1] = arrivals.corrected_arrivals(rng, rates, cfg.duration, f.max_arrivals)
+            arrivals.corrected_arrivals(
+                rng, rates, cfg.duration, f.max_arrivals, out=table[i, :-1], compiled=self._kernel is not None
+            )
             table[i, -1] = 0
             if cfg.init_elevator_pos is not None:
                 position[i] = round(cfg.init_elevator_pos / cfg.elevator.movement_speed)
