@@ -79,6 +79,12 @@ def standin_module(domain: str) -> Any:
         return None
 
 
+def stand_in_replacing(name: str) -> Any:
+    """The stand-in module of ``name``'s domain (:func:`standin_module`) if it stands in for that file, else None."""
+    module = standin_module(name.split("/", 1)[0])
+    return module if module is not None and getattr(module, "STANDS_IN_FOR", None) == name else None
+
+
 def dataset(name: str) -> DatasetSpec:
     """Return the registered spec of a dataset name."""
     datasets = registry().datasets

@@ -63,7 +63,7 @@ def data_files(env_id: str) -> list[dict[str, Any]]:
     its domain's stand-in replaces (``gym4real data synthesize``) names the stand-in found in its place,
     with the SHA-256 of that copy (``read_instead``): the file a preset that trains on it reads.
     """
-    from gym4real.core.datasets import dataset, find, find_stand_in, sha256_of, standin_module
+    from gym4real.core.datasets import dataset, find, find_stand_in, sha256_of, stand_in_replacing
     from gym4real.core.registry import registry
 
     rows: list[dict[str, Any]] = []
@@ -75,11 +75,9 @@ def data_files(env_id: str) -> list[dict[str, Any]]:
             "sha256": sha256_of(copy.path) if copy else spec.sha256,
             "found": copy.where if copy else "no",
         }
-        module = standin_module(name.split("/", 1)[0])
-        if copy is None and module is not None and name == module.STANDS_IN_FOR:
-            stand_in = find_stand_in(module)
-            if stand_in is not None:
-                row["read_instead"] = {"path": module.PATH, "sha256": sha256_of(stand_in.path), "found": stand_in.where}
+        module = stand_in_replacing(name) if copy is None else None
+        if module is not None and (stand_in := find_stand_in(module)) is not None:
+            row["read_instead"] = {"path": module.PATH, "sha256": sha256_of(stand_in.path), "found": stand_in.where}
         rows.append(row)
     return rows
 

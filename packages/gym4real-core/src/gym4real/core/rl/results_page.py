@@ -119,7 +119,7 @@ def _data_read(report: dict[str, Any]) -> list[str]:
     found at run time, with the stand-in its domain reads in its place (``gym4real.<domain>.standin``,
     written by ``gym4real data synthesize <domain>``) where there is one.
     """
-    from gym4real.core.datasets import standin_module
+    from gym4real.core.datasets import stand_in_replacing
     from gym4real.core.registry import registry
 
     datasets, rows = registry().datasets, report.get("data_files", [])
@@ -132,9 +132,9 @@ def _data_read(report: dict[str, Any]) -> list[str]:
     ]
     for row in rows:
         if row.get("found") == "no":
-            domain = row["name"].split("/", 1)[0]
-            module = standin_module(domain)
-            if module is not None and getattr(module, "STANDS_IN_FOR", None) == row["name"]:
+            module = stand_in_replacing(row["name"])
+            if module is not None:
+                domain = row["name"].split("/", 1)[0]
                 stand_ins.append(
                     f"`{row['name']}` was not found at run time: a preset that trains on it read the synthetic "
                     f"stand-in `{module.PATH}` instead (`gym4real data synthesize {domain}`; {_stand_in_hash(row)})"
