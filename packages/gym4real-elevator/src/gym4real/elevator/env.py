@@ -149,7 +149,7 @@ class ElevatorEnv(gym.Env[dict[str, Any], int]):
         seconds = np.flatnonzero(per_second)
         # the seconds with arrivals (about a fifth) as Python ints: the step's hot path reads no numpy
         self._rows = dict(zip(seconds.tolist(), arrivals_table[seconds].tolist(), strict=True))
-        self._any_arrival = (per_second > 0).tolist()
+        self._any_arrival = (per_second > 0).tolist()  # the step's test: a list index is faster than `in _rows`
         self._no_arrivals = [0] * arrivals_table.shape[1]
         self._t = 0
         self._pos = position
