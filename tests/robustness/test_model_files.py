@@ -174,3 +174,19 @@ def test_an_algorithm_sb3_does_not_ship_is_refused(tmp_path: Path) -> None:
     _saved_model("sb3:a2c", "gym4real/elevator-v0", model)
     with pytest.raises(PolicyError, match="unknown Stable-Baselines3 algorithm `ars`"):
         make_policy("gym4real/elevator-v0", f"sb3:ars:{model}", gym.make("gym4real/elevator-v0"))
+
+
+def test_the_data_entry_of_a_model_on_camera_images_is_read(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """SB3 prints the observation space's bounds into ``data``: 10.8 MB for picking-v1's 1 x 300 x 300 frames."""
+    from gym4real.core.rl import model_file
+
+    bounds = "[[[0. " + "0. " * 1_800_000 + "]]]"  # as long as SB3's text of the bounds in picking-v1's model
+    space = {":type:": "<class 'gymnasium.spaces.box.Box'>", "low": bounds, "high": bounds, "shape": [1, 300, 300]}
+    model = tmp_path / "model.zip"
+    with zipfile.ZipFile(model, "w", zipfile.ZIP_DEFLATED) as archive:
+        archive.writestr("data", json.dumps({"observation_space": space}))
+    assert zipfile.ZipFile(model).getinfo("data").file_size > 4 * 2**20  # over the old limit
+    assert model_file.read_data(model)["observation_space"]["shape"] == [1, 300, 300]
+    monkeypatch.setattr(model_file, "MAX_DATA_BYTES", 2**20)  # a larger entry is still refused, by its size
+    with pytest.raises(PolicyError, match="bytes; a Stable-Baselines3 model writes a few KB"):
+        model_file.read_data(model)

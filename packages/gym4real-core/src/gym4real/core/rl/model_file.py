@@ -24,8 +24,9 @@ import gymnasium as gym
 
 from gym4real.core.errors import PolicyError
 
-#: Largest ``data`` entry read from a model file (SB3 writes a few KB).
-MAX_DATA_BYTES = 4 * 2**20
+#: Largest ``data`` entry read from a model file. SB3 writes a few KB plus the observation space, whose bounds
+#: it prints element by element: about 120 bytes per element, 10.8 MB for picking-v1's 1 x 300 x 300 image.
+MAX_DATA_BYTES = 256 * 2**20
 
 #: Training state SB3 pickles in a model saved during or after ``learn`` (replaced by empty values).
 TRAINING_STATE = frozenset(
@@ -106,7 +107,7 @@ def read_data(path: Path) -> dict[str, Any]:
             if info.file_size > MAX_DATA_BYTES:
                 raise PolicyError(
                     f"`{path}`: its `data` entry is {info.file_size} bytes; a Stable-Baselines3 model writes a few KB "
-                    f"(at most {MAX_DATA_BYTES} read)"
+                    f"and about 120 bytes per element of its observation space (at most {MAX_DATA_BYTES} read)"
                 )
             raw = archive.read(info)
     except zipfile.BadZipFile as exc:
