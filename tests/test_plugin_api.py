@@ -118,8 +118,7 @@ def test_the_example_plugin_installs_and_its_env_meets_the_contract(example_site
     code = (
         "import gym4real, gymnasium as gym\n"
         "from gym4real.core.testing import check_contract\n"
-        "from gym4real.core.policies import load_object\n"
-        "from gym4real.core.registry import registry\n"
+        "from gym4real.core.registry import load_object, registry\n"
         "assert 'gym4real/tank-v0' in gym4real.list_envs() and not gym4real.plugin_errors()\n"
         "env = gym4real.make('gym4real/tank-v0')\n"
         "check_contract('gym4real/tank-v0')\n"

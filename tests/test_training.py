@@ -190,7 +190,7 @@ def test_compiled_and_python_tabular_loops_learn_the_same_table(algo: str, fidel
 
 def test_tabular_model_selection_never_sees_the_test_seeds(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     from gym4real.core.benchmark import protocol
-    from gym4real.core.policies import load_object
+    from gym4real.core.registry import load_object
 
     resets: dict[int, list[int | None]] = {}  # seeds of each env instance, in order of first reset
     reset = gym.Env.reset
@@ -326,7 +326,7 @@ def test_a_run_killed_while_writing_a_checkpoint_resumes_from_the_one_before(
 
 def test_dam_and_wds_select_their_models_on_held_out_data() -> None:
     from gym4real.core.benchmark import protocol
-    from gym4real.core.policies import load_object
+    from gym4real.core.registry import load_object
 
     dam = load_preset("gym4real/dam-v0", "ppo", "paper")
     train_years = set(gym.make("gym4real/dam-v0", **dam["env_kwargs"]).unwrapped.years)

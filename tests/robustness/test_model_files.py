@@ -77,7 +77,7 @@ def _saved_model(kind: str, env_id: str, path: Path) -> None:
         kwargs = {"net_arch": [16], "activation_fn": torch.nn.ReLU}
         model = sb3.A2C(policy, env, n_steps=8, seed=0, device="cpu", policy_kwargs=kwargs)
     else:  # an off-policy algorithm of SB3 or sb3-contrib
-        from gym4real.core.policies import load_object
+        from gym4real.core.registry import load_object
         from gym4real.core.rl.model_file import SB3_ALGOS
 
         algo_cls = load_object(SB3_ALGOS[algo])

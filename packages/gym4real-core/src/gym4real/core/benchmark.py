@@ -21,8 +21,8 @@ import pandas as pd
 
 from gym4real.core import stats
 from gym4real.core.errors import ConfigError
-from gym4real.core.policies import baseline_names, load_object, make_policy
-from gym4real.core.registry import base_env, env_spec, registry
+from gym4real.core.policies import baseline_names, make_policy
+from gym4real.core.registry import base_env, env_spec, load_object, registry
 from gym4real.core.specs import BenchmarkSpec
 from gym4real.wrappers.multi_objective import MultiObjective
 

@@ -121,11 +121,14 @@ def find(name: str, data_dir: str | Path | None = None) -> Copy | None:
     return None
 
 
-def find_stand_in(module: Any, data_dir: str | Path | None = None) -> Copy | None:
-    """Return the first copy of a domain's stand-in (``module.PATH``, :func:`standin_module`) in the places searched."""
+def find_stand_in(path: str, data_dir: str | Path | None = None) -> Copy | None:
+    """Return the first copy of a stand-in in the places searched, or None.
+
+    ``path`` is where it lies under a data folder (a :func:`standin_module`'s ``PATH``).
+    """
     for where, folder in places(data_dir):
-        if (folder / module.PATH).is_file():
-            return Copy(where, folder / module.PATH)
+        if (folder / path).is_file():
+            return Copy(where, folder / path)
     return None
 
 

@@ -28,9 +28,9 @@ import pandas as pd
 from gym4real.core import stats, suite_score
 from gym4real.core.benchmark import benchmark, protocol, run_episode
 from gym4real.core.errors import ConfigError, PolicyError
-from gym4real.core.policies import baseline_names, build_policy, is_user_object, load_object, make_policy, user_policy
+from gym4real.core.policies import baseline_names, build_policy, is_user_object, make_policy, user_policy
 from gym4real.core.reference import check_fingerprint, fingerprint, load_reference
-from gym4real.core.registry import list_envs, registry
+from gym4real.core.registry import list_envs, load_object, registry
 from gym4real.core.rl.plan import slug
 
 PolicyRef = str | Callable[..., Any]

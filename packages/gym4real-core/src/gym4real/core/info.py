@@ -40,7 +40,8 @@ class EnvInfo:
 
 def env_info(env_id: str) -> EnvInfo:
     """Return the record of an installed environment (raises a helpful error for an unknown id)."""
-    from gym4real.core.policies import baseline_names, load_object
+    from gym4real.core.policies import baseline_names
+    from gym4real.core.registry import load_object
 
     spec = env_spec(env_id)
     reg = registry()

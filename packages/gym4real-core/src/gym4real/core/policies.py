@@ -17,7 +17,6 @@ A policy string is one of:
 
 from __future__ import annotations
 
-import importlib
 import inspect
 import re
 from collections.abc import Callable
@@ -27,7 +26,7 @@ from typing import Any, Protocol
 import gymnasium as gym
 
 from gym4real.core.errors import PolicyError
-from gym4real.core.registry import base_env, registry
+from gym4real.core.registry import base_env, load_object, registry
 from gym4real.wrappers.multi_objective import MultiObjective
 
 
@@ -37,15 +36,6 @@ class Policy(Protocol):
     def __call__(self, obs: Any) -> Any:
         """Return the action for ``obs``."""
         ...
-
-
-def load_object(path: str) -> Any:
-    """Import ``"module:attr"`` (attr may be dotted)."""
-    module, _, attr = path.partition(":")
-    obj: Any = importlib.import_module(module)
-    for part in attr.split("."):
-        obj = getattr(obj, part)
-    return obj
 
 
 class RandomPolicy:

@@ -31,8 +31,7 @@ import pandas as pd
 from gym4real.core.benchmark import protocol
 from gym4real.core.episodes import score_matrices
 from gym4real.core.errors import ConfigError, ReferenceMismatchError
-from gym4real.core.policies import load_object
-from gym4real.core.registry import env_spec, registry
+from gym4real.core.registry import env_spec, load_object, registry
 from gym4real.core.rl.plan import slug
 
 #: Folder of the reference files inside a domain package.

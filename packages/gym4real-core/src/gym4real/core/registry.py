@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import difflib
 import functools
+import importlib
 import itertools
 import logging
 import os
@@ -427,6 +428,15 @@ def list_envs(*, strict: bool | None = None, multi_objective: bool = True) -> li
     """
     reg = registry(strict=strict)
     return sorted(i for i in reg.envs if multi_objective or i not in reg.multi_objective)
+
+
+def load_object(path: str) -> Any:
+    """Import ``"module:attr"`` (attr may be dotted): the entry points of baselines, protocols, loaders."""
+    module, _, attr = path.partition(":")
+    obj: Any = importlib.import_module(module)
+    for part in attr.split("."):
+        obj = getattr(obj, part)
+    return obj
 
 
 def base_env(env_id: str) -> str:

@@ -21,6 +21,9 @@ from gym4real.core.errors import DataFileError
 
 DOMAIN = "microgrid"
 TRAIN_DEMAND = "demand/train"
+#: Where the synthetic stand-in for the training households lies under a data folder
+#: (:mod:`gym4real.microgrid.standin` writes it).
+STAND_IN = "microgrid/demand/profiles_train_standin.csv"
 
 
 #: Unit and plausible range ``(low, high, unit)`` of every value column (demand: each household column).
@@ -60,9 +63,8 @@ def training_demand(data_dir: str | Path | None) -> tuple[Path, str]:
         DataFileError: Neither is found; the message gives both fixes.
     """
     from gym4real.core.datasets import find, find_stand_in
-    from gym4real.microgrid import standin
 
-    if find(f"{DOMAIN}/{TRAIN_DEMAND}", data_dir) is None and (copy := find_stand_in(standin, data_dir)) is not None:
+    if find(f"{DOMAIN}/{TRAIN_DEMAND}", data_dir) is None and (copy := find_stand_in(STAND_IN, data_dir)) is not None:
         return copy.path, "stand-in"
     try:
         return data_path(TRAIN_DEMAND, data_dir), "real"

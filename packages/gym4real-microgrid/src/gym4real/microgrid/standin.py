@@ -40,16 +40,17 @@ from typing import Any
 
 import numpy as np
 
-from gym4real.core.errors import Gym4RealError
+from gym4real.core.errors import DataFileError, Gym4RealError
+from gym4real.microgrid.data import DOMAIN, STAND_IN, TRAIN_DEMAND, training_demand
 
 #: Households of the paper's training file.
 HOUSEHOLDS = 370
 #: Default seed of the stand-in (the file's provenance records it).
 SEED = 2015
 #: Path of the stand-in under a data folder (beside the real ``demand/profiles_train.csv``).
-PATH = "microgrid/demand/profiles_train_standin.csv"
+PATH = STAND_IN
 #: The registered data file it stands in for (read in its place when that one is absent).
-STANDS_IN_FOR = "microgrid/demand/train"
+STANDS_IN_FOR = f"{DOMAIN}/{TRAIN_DEMAND}"
 #: Share of Italian households by number of members (ISTAT, Annuario statistico italiano 2022; 5: five or more).
 HOUSEHOLD_SIZES = {1: 0.332, 2: 0.271, 3: 0.192, 4: 0.150, 5: 0.055}
 #: Annual consumption of ARERA's reference domestic customer, kWh.
@@ -61,9 +62,6 @@ HOURS = 8760
 
 def status(data_dir: str | Path | None = None) -> str:
     """Which training households the ``train`` preset reads: the real file, the stand-in, or neither."""
-    from gym4real.core.errors import DataFileError
-    from gym4real.microgrid.data import training_demand
-
     try:
         path, source = training_demand(data_dir)
     except DataFileError:

@@ -76,7 +76,7 @@ def data_files(env_id: str) -> list[dict[str, Any]]:
             "found": copy.where if copy else "no",
         }
         module = stand_in_replacing(name) if copy is None else None
-        if module is not None and (stand_in := find_stand_in(module)) is not None:
+        if module is not None and (stand_in := find_stand_in(module.PATH)) is not None:
             row["read_instead"] = {"path": module.PATH, "sha256": sha256_of(stand_in.path), "found": stand_in.where}
         rows.append(row)
     return rows

@@ -145,7 +145,7 @@ def load_model(env: gym.Env[Any, Any], path: str | Path, algo: str) -> Normalize
         PolicyError: An algorithm SB3 does not ship, not an SB3 model of ``algo``, a pickled entry SB3 does not
             write (named), or a model trained on other observation/action spaces.
     """
-    from gym4real.core.policies import load_object
+    from gym4real.core.registry import load_object
     from gym4real.core.rl.model_file import SB3_ALGOS, algo_name, custom_objects
 
     if algo not in SB3_ALGOS:

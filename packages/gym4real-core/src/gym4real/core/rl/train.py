@@ -212,8 +212,7 @@ def check_no_test_overlap(env_id: str, algo: str, preset: str) -> None:
     Raises:
         ConfigError: The two blocks of seeds overlap.
     """
-    from gym4real.core.policies import load_object
-    from gym4real.core.registry import registry
+    from gym4real.core.registry import load_object, registry
 
     spec = registry().benchmarks.get(env_id)
     if spec is None:
