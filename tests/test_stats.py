@@ -207,3 +207,17 @@ def test_the_selected_checkpoint_is_the_validation_row_the_run_kept() -> None:
     curve = pd.DataFrame({"timesteps": [100, 200, 300, 400], "mean_return": [1.0, 3.0, 3.0, 3.05]})
     assert selected_checkpoint(curve) == (400, 3.05)  # SB3: any strict improvement
     assert selected_checkpoint(curve, min_improvement=0.1) == (200, 3.0)  # tabular: by more than its tolerance
+
+
+def test_a_claim_against_the_rule_based_strategies_compares_with_exactly_the_protocols_rule_based_ones() -> None:
+    from gym4real.core.registry import registry
+
+    about_rules = [
+        (env_id, claim)
+        for env_id, spec in registry().benchmarks.items()
+        for claim in spec.claims
+        if "rule-based" in claim.text
+    ]
+    assert {env_id for env_id, _ in about_rules} >= {"gym4real/dam-v0", "gym4real/elevator-v0", "gym4real/microgrid-v0"}
+    for env_id, claim in about_rules:  # `random` follows no rule; each protocol names its rule-based baselines
+        assert set(claim.others) == set(registry().benchmarks[env_id].rule_based), (env_id, claim.text)
