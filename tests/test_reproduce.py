@@ -147,3 +147,28 @@ def test_the_learning_curve_band_stops_where_fewer_than_two_seeds_remain(tmp_pat
     assert two["mean"].tolist() == [0.0, 1.5]
     assert curve.loc[curve["seeds"] == 1, ["mean", "low", "high"]].isna().all().all()  # no one-seed "band"
     assert (tmp_path / "learning_curves.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_an_unknown_id_is_refused_before_anything_runs(tmp_path: Path) -> None:
+    from gym4real.core.errors import EnvUnavailableError
+
+    with pytest.raises(EnvUnavailableError, match="Did you mean `gym4real/trading-v0`"):
+        reproduce(["gym4real/trading-v0", "gym4real/trading-v9"], budget="quick", out=tmp_path / "out")
+    assert not (tmp_path / "out").exists()  # nothing trained, no page
+    for args in (["gym4real/trading-v9", "--plan"], ["gym4real/trading-v9"]):
+        done = _cli(*args, "--out", str(tmp_path / "cli"))
+        assert done.returncode == 2 and "unknown environment `gym4real/trading-v9`" in done.stderr, done.stderr
+
+
+def test_all_means_the_envs_with_a_paper_comparison(tmp_path: Path) -> None:
+    env = {**os.environ, "GYM4REAL_DISABLE_PLUGINS": "elevator,microgrid,robofeeder,trading,wds"}
+    done = subprocess.run(
+        [sys.executable, "-m", "gym4real.core.cli", "reproduce", "--all", "--plan", "--out", str(tmp_path)],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
+    assert "dam-v0 ppo/paper" in done.stdout and "dam-mo-v0" not in done.stdout  # the -mo id trains nothing

@@ -181,7 +181,7 @@ def _cmd_reproduce(args: argparse.Namespace) -> None:
 
     if bool(args.env_ids) == args.all:
         raise Gym4RealError("name the environments to reproduce, or pass --all (not both)")
-    env_ids = list_envs() if args.all else args.env_ids
+    env_ids = list_envs(multi_objective=False) if args.all else args.env_ids
     if args.storage and not args.ray:
         raise Gym4RealError("--storage is where Ray workers keep the run folders: pass it with --ray")
     if args.plan:
@@ -341,7 +341,11 @@ def _parser() -> argparse.ArgumentParser:
         _cmd_reproduce,
     )
     rep.add_argument("env_ids", nargs="*", metavar="ENV_ID", help=f"{ENV_ID_HELP} (several allowed)")
-    rep.add_argument("--all", action="store_true", help="every installed environment")
+    rep.add_argument(
+        "--all",
+        action="store_true",
+        help="every installed environment (not the vector-reward -mo ids: they train nothing)",
+    )
     rep.add_argument(
         "--budget",
         choices=["paper", "quick"],

@@ -6,11 +6,12 @@ any order, one at a time or in parallel (:mod:`gym4real.core.rl.runner`).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 from gym4real.core.errors import ConfigError
-from gym4real.core.registry import registry
+from gym4real.core.registry import env_spec, registry
 from gym4real.core.rl.presets import load_preset
 
 #: Budget -> the preset that serves it when no preset declares it (``TrainingSpec.budget``).
@@ -19,6 +20,17 @@ BUDGETS = {"paper": "paper", "quick": "smoke"}
 DEFAULT_SEEDS = 5
 #: Seeds of the quick budget (the first of the paper's).
 QUICK_SEEDS = 2
+
+
+def check_ids(env_ids: Sequence[str]) -> None:
+    """Refuse, before anything runs, an id that is not registered (a typo, a domain not installed).
+
+    Raises:
+        EnvUnavailableError: From :func:`~gym4real.core.registry.env_spec`: the nearest ids, or the
+            ``pip install`` of the domain.
+    """
+    for env_id in env_ids:
+        env_spec(env_id)
 
 
 def slug(env_id: str) -> str:

@@ -38,7 +38,7 @@ from gym4real.core import stats
 from gym4real.core.benchmark import BenchmarkResult, benchmark, protocol
 from gym4real.core.errors import Gym4RealError
 from gym4real.core.rl import analysis, provenance
-from gym4real.core.rl.plan import Item, plan, slug
+from gym4real.core.rl.plan import Item, check_ids, plan, slug
 from gym4real.core.rl.progress import PlanProgress
 from gym4real.core.rl.runner import describe_error, train_plan
 from gym4real.core.rl.train import TrainingRun
@@ -251,7 +251,11 @@ def reproduce(
         jobs: Training runs at a time on this machine (:func:`~gym4real.core.rl.runner.train_plan`).
         ray: Run the training runs on Ray instead (:func:`~gym4real.core.rl.cluster.train_on_ray`).
         storage: With ``ray``: where the workers keep the run folders (default ``out``).
+
+    Raises:
+        EnvUnavailableError: An id is not registered (checked before anything runs).
     """
+    check_ids(env_ids)
     out = Path(out)
     plans: dict[str, list[Item]] = {}
     errors: dict[str, str] = {}
