@@ -93,15 +93,27 @@ def test_an_env_that_cannot_run_is_reported_and_named_on_the_page(
 
 
 def test_the_plan_uses_the_papers_seeds_and_stand_in_presets(tmp_path: Path) -> None:
-    assert seeds("gym4real/dam-v0", "paper") == [123]
+    assert seeds("gym4real/dam-v0", "paper") == [123, 0, 1, 2, 3]  # the paper's one seed, topped up to five
+    assert seeds("gym4real/dam-v0", "quick") == [123]
     assert seeds("gym4real/elevator-v0", "paper", 3) == [42, 0, 1]
     assert seeds("gym4real/trading-v0", "paper") == [32517, 84029, 10473, 67288, 91352, 47605]
     assert seeds("gym4real/trading-v0", "quick") == [32517, 84029]
     assert presets("gym4real/trading-v0", "paper") == {"dqn": "hourly", "ppo": "hourly"}
     assert presets("gym4real/elevator-v0", "quick") == {"qlearning": "smoke", "sarsa": "smoke"}
-    items = plan("gym4real/elevator-v0", "paper", None, tmp_path)
+    items = plan("gym4real/elevator-v0", "paper", 1, tmp_path)
     assert [(i.algo, i.seed) for i in items] == [("qlearning", 42), ("sarsa", 42)]
     assert items[0].folder == tmp_path / "elevator-v0" / "paper" / "runs" / "qlearning" / "seed42"
+
+
+def test_the_commands_of_the_published_page_train_its_seeds() -> None:
+    sections = sorted((Path(__file__).parents[1] / "docs" / "results").glob("*-paper/report.json"))
+    assert len(sections) == 8
+    for path in sections:
+        report = json.loads(path.read_text())
+        n = int(report["command"].split("--seeds ")[1].split()[0])
+        assert sorted(seeds(report["env_id"], "paper", n)) == report["seeds"], path.parent.name
+        if report["env_id"] != "gym4real/microgrid-v0":  # published with the paper's one seed (`--seeds 1`)
+            assert sorted(seeds(report["env_id"], "paper")) == report["seeds"], path.parent.name
 
 
 def test_pooling_an_algorithms_seeds_keeps_the_results_step_unit_and_objective() -> None:

@@ -352,7 +352,12 @@ def _parser() -> argparse.ArgumentParser:
         default="paper",
         help="paper: the appendix's settings (hours); quick: the smoke presets (minutes, checks the pipeline)",
     )
-    rep.add_argument("--seeds", type=int, default=None, help="seeds per algorithm (default: the paper's)")
+    rep.add_argument(
+        "--seeds",
+        type=int,
+        default=None,
+        help="seeds per algorithm (default: the paper's, at least 5 at the paper budget; quick: 2 at most)",
+    )
     rep.add_argument("--out", default="results/reproduce", help="output folder; finished runs there are reused")
     rep.add_argument("--page", default=None, help="also write the results page and figures into this folder")
     rep.add_argument("--quiet", action="store_true", help="no progress bar")
