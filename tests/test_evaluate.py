@@ -203,3 +203,11 @@ def test_an_env_without_reference_runs_is_compared_with_its_baselines_run_now(tm
     assert f"none in `{tmp_path}`: compared with the baselines run now" in evaluation.table()
     assert evaluation.references() == []
     assert evaluation.score()["envs"]["gym4real/trading-v0"]["normalized_iqm"] is not None
+
+
+def test_an_unknown_id_is_named_with_the_nearest_ones(capsys: pytest.CaptureFixture[str]) -> None:
+    for command in (["evaluate", "flat", "--envs", "gym4real/elevator-v9"], ["bench", "gym4real/elevator-v9"]):
+        assert main(command) == 2
+        err = capsys.readouterr().err
+        assert "unknown environment `gym4real/elevator-v9`. Did you mean `gym4real/elevator-v0`" in err, err
+        assert "evaluation protocol" not in err

@@ -161,7 +161,7 @@ def test_the_learning_curve_band_stops_where_fewer_than_two_seeds_remain(tmp_pat
     assert (tmp_path / "learning_curves.png").read_bytes()[:4] == b"\x89PNG"
 
 
-def test_an_unknown_id_is_refused_before_anything_runs(tmp_path: Path) -> None:
+def test_an_unknown_id_or_no_seed_is_refused_before_anything_runs(tmp_path: Path) -> None:
     from gym4real.core.errors import EnvUnavailableError
 
     with pytest.raises(EnvUnavailableError, match="Did you mean `gym4real/trading-v0`"):
@@ -170,6 +170,10 @@ def test_an_unknown_id_is_refused_before_anything_runs(tmp_path: Path) -> None:
     for args in (["gym4real/trading-v9", "--plan"], ["gym4real/trading-v9"]):
         done = _cli(*args, "--out", str(tmp_path / "cli"))
         assert done.returncode == 2 and "unknown environment `gym4real/trading-v9`" in done.stderr, done.stderr
+    for args in (["gym4real/trading-v0", "--seeds", "0", "--plan"], ["gym4real/trading-v0", "--seeds", "0"]):
+        done = _cli(*args, "--out", str(tmp_path / "cli"))
+        assert done.returncode == 2 and "--seeds must be at least 1, not 0" in done.stderr, done.stderr
+    assert not (tmp_path / "cli").exists()
 
 
 def test_all_means_the_envs_with_a_paper_comparison(tmp_path: Path) -> None:

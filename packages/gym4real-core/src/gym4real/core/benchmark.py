@@ -199,7 +199,13 @@ def seeded_episodes(n: int, seed: int = 0) -> list[dict[str, Any]]:
 
 
 def protocol(env_id: str) -> BenchmarkSpec:
-    """Return the registered evaluation protocol of an environment (a vector-reward variant: its env's)."""
+    """Return the registered evaluation protocol of an environment (a vector-reward variant: its env's).
+
+    Raises:
+        EnvUnavailableError: The id is not registered (:func:`~gym4real.core.registry.env_spec`'s error).
+        ConfigError: The env registers no protocol.
+    """
+    env_spec(env_id)
     spec = registry().benchmarks.get(base_env(env_id))
     if spec is None:
         raise ConfigError(f'`{env_id}` registers no evaluation protocol; pass `episodes=N` instead of "test"')

@@ -23,15 +23,28 @@ DEFAULT_SEEDS = 5
 QUICK_SEEDS = 2
 
 
-def check_ids(env_ids: Sequence[str]) -> None:
-    """Refuse, before anything runs, an id that is not registered (a typo, a domain not installed).
+def check_request(env_ids: Sequence[str], budget: str, n_seeds: int | None) -> None:
+    """Refuse, before anything runs, what no environment of a request can run.
 
     Raises:
-        EnvUnavailableError: From :func:`~gym4real.core.registry.env_spec`: the nearest ids, or the
-            ``pip install`` of the domain.
+        EnvUnavailableError: An id that is not registered (a typo, a domain not installed), from
+            :func:`~gym4real.core.registry.env_spec`: the nearest ids, or the ``pip install`` of the domain.
+        ConfigError: An unknown budget, or fewer than one seed.
     """
     for env_id in env_ids:
         env_spec(env_id)
+    _check_budget(budget)
+    _check_seed_count(n_seeds)
+
+
+def _check_budget(budget: str) -> None:
+    if budget not in BUDGETS:
+        raise ConfigError(f"budget `{budget}` is not one of {sorted(BUDGETS)}")
+
+
+def _check_seed_count(n: int | None) -> None:
+    if n is not None and n < 1:
+        raise ConfigError(f"--seeds must be at least 1, not {n}")
 
 
 def slug(env_id: str) -> str:
@@ -41,8 +54,7 @@ def slug(env_id: str) -> str:
 
 def presets(env_id: str, budget: str) -> dict[str, str]:
     """The training preset of each algorithm of ``env_id`` for ``budget``: one declared for it, else the budget's."""
-    if budget not in BUDGETS:
-        raise ConfigError(f"budget `{budget}` is not one of {sorted(BUDGETS)}")
+    _check_budget(budget)
     found: dict[str, str] = {}
     for (env, algo, preset), spec in sorted(registry().trainings.items()):
         if env == env_id and spec.budget == budget:
@@ -69,8 +81,7 @@ def seeds(env_id: str, budget: str, n: int | None = None) -> list[int]:
                 paper.append(s)
     if n is None:
         n = min(len(paper) or QUICK_SEEDS, QUICK_SEEDS) if budget == "quick" else max(len(paper), DEFAULT_SEEDS)
-    if n < 1:
-        raise ConfigError(f"--seeds must be at least 1, not {n}")
+    _check_seed_count(n)
     extra = (s for s in range(10**6) if s not in paper)
     return (paper + [next(extra) for _ in range(max(0, n - len(paper)))])[:n]
 

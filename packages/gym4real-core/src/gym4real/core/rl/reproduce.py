@@ -38,7 +38,7 @@ from gym4real.core import stats
 from gym4real.core.benchmark import BenchmarkResult, benchmark, protocol
 from gym4real.core.errors import Gym4RealError
 from gym4real.core.rl import analysis, provenance
-from gym4real.core.rl.plan import Item, check_ids, plan, slug
+from gym4real.core.rl.plan import Item, check_request, plan, slug
 from gym4real.core.rl.progress import PlanProgress
 from gym4real.core.rl.runner import describe_error, train_plan
 from gym4real.core.rl.train import TrainingRun
@@ -254,8 +254,9 @@ def reproduce(
 
     Raises:
         EnvUnavailableError: An id is not registered (checked before anything runs).
+        ConfigError: An unknown budget, or fewer than one seed (checked before anything runs).
     """
-    check_ids(env_ids)
+    check_request(env_ids, budget, n_seeds)
     out = Path(out)
     plans: dict[str, list[Item]] = {}
     errors: dict[str, str] = {}
