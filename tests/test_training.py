@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Any
 
@@ -243,10 +244,20 @@ def test_an_interrupted_tabular_run_resumes_to_the_same_table(tmp_path: Path) ->
     with pytest.raises(_Interrupt):
         train("gym4real/elevator-v0", "qlearning", preset, seed=3, out=tmp_path / "cut", progress=stop_at_five)
     assert (tmp_path / "cut" / "checkpoint.npz").exists() and not (tmp_path / "cut" / "run.json").exists()
+    with np.load(tmp_path / "cut" / "checkpoint.npz") as cut:
+        checkpointed_at = int(cut["episode"])  # the last validation before the interruption
+    assert 0 < checkpointed_at < 5
     resumed = train("gym4real/elevator-v0", "qlearning", preset, seed=3, out=tmp_path / "cut")
     np.testing.assert_array_equal(np.load(resumed.model_path)["q"], np.load(whole.model_path)["q"])
     assert pd.read_csv(resumed.curve_csv).equals(pd.read_csv(whole.curve_csv))
     assert not (tmp_path / "cut" / "checkpoint.npz").exists()
+    # the run records where it went on from, and with which code; the uninterrupted one records no resume
+    resumes = json.loads((tmp_path / "cut" / "run.json").read_text())["resumes"]
+    assert [(r["unit"], r["at"]) for r in resumes] == [("episodes", checkpointed_at)]
+    assert resumes[0]["code_version"] == json.loads((tmp_path / "cut" / "run.json").read_text())["versions"].get(
+        "gym4real (git)", "unknown"
+    )
+    assert json.loads((tmp_path / "whole" / "run.json").read_text())["resumes"] == []
     with pytest.raises(ConfigError, match="holds a run of other settings"):
         train("gym4real/elevator-v0", "qlearning", preset, seed=4, out=tmp_path / "cut")
 
@@ -266,8 +277,6 @@ eval_episodes: 2
 
 def test_an_interrupted_sb3_run_resumes_from_its_checkpoint(tmp_path: Path) -> None:
     pytest.importorskip("stable_baselines3")
-    import json
-
     import numpy as np
 
     path = tmp_path / "dqn.yaml"
@@ -289,6 +298,7 @@ def test_an_interrupted_sb3_run_resumes_from_its_checkpoint(tmp_path: Path) -> N
     # DQN collects train_freq (4) steps of both envs at a time: the budget 408 is a multiple of 8
     assert run.env_steps == 408 and not (out / "checkpoint").exists()
     assert pd.read_csv(run.curve_csv)["timesteps"].tolist() == [136, 272, 408]
+    assert [(r["unit"], r["at"]) for r in json.loads((out / "run.json").read_text())["resumes"]] == [("timesteps", 272)]
 
 
 def test_a_run_killed_while_writing_a_checkpoint_resumes_from_the_one_before(
@@ -296,8 +306,6 @@ def test_a_run_killed_while_writing_a_checkpoint_resumes_from_the_one_before(
 ) -> None:
     """A run killed halfway through writing its second checkpoint (a session's end, a lost node) resumes."""
     pytest.importorskip("stable_baselines3")
-    import json
-
     from stable_baselines3.common.base_class import BaseAlgorithm
 
     path = tmp_path / "dqn.yaml"

@@ -97,10 +97,15 @@ def selected_checkpoint(curve: pd.DataFrame, min_improvement: float = 0.0) -> tu
 
 
 def runs_table(runs: list[TrainingRun]) -> pd.DataFrame:
-    """``runs.csv``: one row per training run, its budget, cost, learning rate, kept checkpoint and settings."""
+    """``runs.csv``: one row per training run, its budget, cost, learning rate, kept checkpoint and settings.
+
+    ``trained_by`` is the code version that trained the run (``git describe --dirty``); ``resumes`` lists
+    the checkpoints it went on from (JSON: unit, count, code version), ``[]`` for a run never interrupted.
+    """
     rows = []
     for run in sorted(runs, key=lambda r: (r.algo, r.seed)):
         settings = json.loads((run.model_path.parent / "settings.json").read_text())
+        record = json.loads((run.model_path.parent / "run.json").read_text())
         hp = settings["hyperparameters"]
         curve = pd.read_csv(run.curve_csv) if run.curve_csv.exists() else pd.DataFrame()
         kept = selected_checkpoint(curve, float(hp.get("min_improvement", 0.0))) if len(curve) else None
@@ -120,6 +125,8 @@ def runs_table(runs: list[TrainingRun]) -> pd.DataFrame:
                 "selected_at": kept[0] if kept else None,
                 "selected_validation_return": kept[1] if kept else None,
                 "settings": json.dumps(hp, sort_keys=True),
+                "trained_by": record.get("versions", {}).get("gym4real (git)", "not recorded"),
+                "resumes": json.dumps(record["resumes"]) if "resumes" in record else "not recorded",
             }
         )
     return pd.DataFrame(rows)

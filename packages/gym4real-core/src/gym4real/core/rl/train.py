@@ -154,6 +154,7 @@ def train(
         )
     settings_path.write_text(json.dumps(settings, indent=1))
     (folder / "run.json").unlink(missing_ok=True)
+    resumes = record_resume(folder)
     timing = folder / "timing.json"
     previous = json.loads(timing.read_text())["wall_time_s"] if timing.exists() else 0.0
     start = time.perf_counter()
@@ -197,9 +198,43 @@ def train(
         "eval_steps": steps["eval"],
         "steps_per_s": run.steps_per_s,
         "versions": versions(),
+        "resumes": resumes,
     }
     (folder / "run.json").write_text(json.dumps(record, indent=1))
+    (folder / RESUMES).unlink(missing_ok=True)
     return run
+
+
+#: The record of an unfinished run's resumes, kept beside its checkpoint until ``run.json`` takes it over.
+RESUMES = "resumes.json"
+
+
+def checkpoint_progress(folder: Path) -> dict[str, Any] | None:
+    """Where the checkpoint in ``folder`` stands (``{"unit": ..., "at": N}``), None without a checkpoint."""
+    state = folder / "checkpoint" / "state.json"
+    if state.exists():
+        return {"unit": "timesteps", "at": int(json.loads(state.read_text())["timesteps"])}
+    tabular = folder / "checkpoint.npz"
+    if tabular.exists():
+        import numpy as np
+
+        with np.load(tabular, allow_pickle=False) as data:
+            return {"unit": "episodes", "at": int(data["episode"])}
+    return None
+
+
+def record_resume(folder: Path) -> list[dict[str, Any]]:
+    """The run's resumes so far, this start appended when it resumes from a checkpoint (``resumes.json``).
+
+    Each entry says from where the run went on (unit and count) and the code version that went on with it.
+    """
+    path = folder / RESUMES
+    resumes: list[dict[str, Any]] = json.loads(path.read_text()) if path.exists() else []
+    at = checkpoint_progress(folder)
+    if at is not None:
+        resumes.append({**at, "code_version": versions().get("gym4real (git)", "unknown")})
+        path.write_text(json.dumps(resumes, indent=1))
+    return resumes
 
 
 def check_no_test_overlap(env_id: str, algo: str, preset: str) -> None:
