@@ -172,7 +172,8 @@ def verdict_table(env_id: str | None = None) -> list[str]:
     if not head:
         return []
     prefix = f"| `{env_id.split('/')[-1]}` |" if env_id else "| `"
-    rows = [line for line in text[head[0] + 2 :] if line.startswith(prefix)]
+    end = next((i for i in range(head[0], len(text)) if not text[i].startswith("|")), len(text))
+    rows = [line for line in text[head[0] + 2 : end] if line.startswith(prefix)]  # the paper's claims' table only
     return [*text[head[0] : head[0] + 2], *rows] if rows else []
 
 

@@ -17,7 +17,7 @@ from gym4real.core.benchmark import BenchmarkResult
 from gym4real.core.rl.plan import plan, presets, seeds
 from gym4real.core.rl.reproduce import pooled, reproduce
 
-VERDICTS = {"holds", "does not hold", "inconclusive"}
+VERDICTS = {"holds", "refuted", "inconclusive"}
 
 
 def _cli(*args: str) -> subprocess.CompletedProcess[str]:

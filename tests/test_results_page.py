@@ -13,6 +13,7 @@ import pandas as pd
 import pytest
 
 from gym4real.core import stats
+from gym4real.core.numbers import human, human_interval
 from gym4real.core.registry import registry
 from gym4real.core.rl.analysis import analyse
 from gym4real.core.rl.results_page import write_page
@@ -140,15 +141,15 @@ def test_every_number_of_the_page_is_recomputed_from_episodes_csv(tmp_path: Path
     scale = max(float(np.abs(m).max()) for m in scores.values())
     for name, matrix in scores.items():
         iqm, low, high = stats.iqm_ci(matrix, name in trained)
-        assert f"| {name} | " in text and f"| {iqm:.4g} | [{low:.4g}, {high:.4g}] |" in text, name
+        assert f"| {name} | " in text and f"| {human(iqm)} | {human_interval(low, high)} |" in text, name
     seed_iqms, _ = stats.per_seed(scores["dqn"])
     for seed, value in enumerate(seed_iqms):  # the failed seed shows, with its checkpoint
-        assert f"| dqn | {seed} | {value:.4g} |" in text and f"{500 + seed:,} timesteps" in text
+        assert f"| dqn | {seed} | {human(value)} |" in text and f"{500 + seed:,} timesteps" in text
     for base in ("random", "p78", "p79", "default"):
         p, low, high = stats.probability_of_improvement(scores["dqn"], scores[base], True, False)
         assert f"| dqn | {base} | {p:.3f} [{low:.3f}, {high:.3f}] |" in text
     diff, low, high = stats.difference_ci(scores["dqn"], scores["default"], True, False, level=1 - 0.05 / 4)
-    assert f"IQM dqn - default: {stats.snap(diff, scale):.4g} [{low:.4g}, {high:.4g}]" in text
+    assert f"IQM dqn - default: {human(stats.snap(diff, scale))} {human_interval(low, high)}" in text
     assert "`p79` is identical to `p78` in every test episode" in text
     assert "Code version `v1.0-3-gabc1234`" in text and "Flagged" not in text
     assert "gym4real reproduce gym4real/wds-v0 --budget paper --seeds 3 --out results/paper" in text
@@ -247,3 +248,84 @@ def test_the_page_prints_no_machine_path(text: str, shown: str) -> None:
     from gym4real.core.rl.results_page import no_paths
 
     assert no_paths(text).startswith(shown)
+
+
+@pytest.mark.parametrize(
+    ("value", "shown"),
+    [
+        (17170.4, "17,170"),
+        (8087.3, "8,087"),
+        (3850.6, "3,851"),
+        (-1847.2, "-1,847"),
+        (0.393512, "0.3935"),
+        (-0.00233333, "-0.002333"),
+        (-0.0, "0"),
+        (1234567.0, "1,235,000"),
+        (float("nan"), "-"),
+    ],
+)
+def test_numbers_are_written_for_people(value: float, shown: str) -> None:
+    assert human(value) == shown
+    assert human_interval(3850.6, 17170.4) == "[3,851, 17,170]"
+
+
+def test_the_page_opens_with_the_summary_figure_and_the_verdicts_and_ends_with_the_methods(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    _results_folder(out, "paper")
+    text = write_page(out, tmp_path / "page").read_text()
+    figure, verdicts = text.index("](summary.png)"), text.index("| env | budget | paper's claim |")
+    first_env, methods = text.index("## `gym4real/wds-v0`"), text.index("## Methods")
+    assert figure < verdicts < first_env < methods
+    assert (tmp_path / "page" / "summary.png").read_bytes()[:4] == b"\x89PNG"
+    for word in ("holds", "refuted", "inconclusive"):  # each verdict word defined once
+        assert len(re.findall(rf"^- \*\*{word}\*\*: ", text, re.M)) == 1, word
+    assert text.index("**Statistics.**") > methods and text.index("**Rules of the verdicts.**") > methods
+    assert "does not hold" not in text and not re.search(r"\d\.\d+e[+-]\d", text)  # no 1.717e+04
+
+
+def test_the_summary_figure_keeps_a_zero_width_interval_inside_its_axes() -> None:
+    from gym4real.core.rl import summary_figure
+
+    summary = pd.DataFrame(
+        [
+            {"policy": "mine", "kind": "agent", "iqm": -0.286, "low": -0.286, "high": -0.286},  # a point interval
+            {"policy": "random", "kind": "baseline", "iqm": 0.0, "low": -0.1, "high": 0.05},
+            {"policy": "best", "kind": "baseline", "iqm": 1.0, "low": 1.0, "high": 1.0},
+        ]
+    )
+    fig = summary_figure.figure([("gym4real/x-v0", "objective", summary)])
+    ax = fig.axes[0]
+    left, right = ax.get_xlim()
+    assert left < summary[["low", "iqm"]].min().min() and right > summary[["high", "iqm"]].max().max()
+    points = {round(float(line.get_xdata()[0]), 6) for line in ax.lines if len(line.get_xdata()) == 1}
+    assert {-0.286, 0.0, 1.0} <= points  # every policy has its marker, the point interval's included
+    bottom, top = ax.get_ylim()
+    assert all(bottom < line.get_ydata()[0] < top for line in ax.lines)
+
+
+def test_the_workspace_heatmap_counts_each_episodes_success_in_its_cell(tmp_path: Path) -> None:
+    from gym4real.core.rl.workspace import success_grid
+
+    rng = np.random.default_rng(9)
+    placements = pd.DataFrame({"episode": range(12), "u": rng.uniform(0, 100, 12), "v": rng.uniform(0, 50, 12)})
+    rows = [
+        {"policy": "ppo", "seed": s, "episode": e, "success": float(rng.random() < 0.5) * 0.5}
+        for s in (0, 1)
+        for e in range(12)
+    ]
+    episodes = pd.DataFrame(rows)
+    edges = (np.array([0.0, 50.0, 100.0]), np.array([0.0, 25.0, 50.0]))
+    rates, counts = success_grid(episodes, placements, "ppo", edges)
+    for r in range(2):
+        for c in range(2):
+            inside = placements[
+                (placements["u"] >= edges[0][c])
+                & (placements["u"] < edges[0][c + 1])
+                & (placements["v"] >= edges[1][r])
+                & (placements["v"] < edges[1][r + 1])
+            ]["episode"]
+            mine = episodes[episodes["episode"].isin(inside)]
+            assert counts[r, c] == len(mine)
+            if len(mine):
+                assert rates[r, c] == pytest.approx((mine["success"] > 0).mean())
+    assert counts.sum() == 24

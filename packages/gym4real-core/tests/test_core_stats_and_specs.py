@@ -76,13 +76,13 @@ def test_iqm_ci_covers_the_iqm_and_narrows_with_more_episodes() -> None:
     ("relation", "interval", "expected"),
     [
         ("above", (0.5, 2.0), "holds"),
-        ("above", (-2.0, -0.5), "does not hold"),
+        ("above", (-2.0, -0.5), "refuted"),
         ("above", (-0.5, 2.0), "inconclusive"),
         ("below", (-2.0, -0.5), "holds"),
-        ("less_variable", (0.1, 0.3), "does not hold"),
+        ("less_variable", (0.1, 0.3), "refuted"),
         ("not_above", (-0.5, 2.0), "inconclusive"),  # reaches the margin 1: an advantage that matters is possible
         ("not_above", (-0.5, 0.9), "holds"),
-        ("not_above", (0.5, 2.0), "does not hold"),
+        ("not_above", (0.5, 2.0), "refuted"),
     ],
 )
 def test_verdict_reads_the_interval_of_the_difference(relation: str, interval: tuple, expected: str) -> None:
@@ -100,7 +100,7 @@ def test_a_claim_holds_only_when_every_comparison_holds() -> None:
     trained = {"agent"}
     assert check_claim(Claim("beats weak", "agent", "above", ("weak",)), scores, trained)["verdict"] == "holds"
     both = check_claim(Claim("beats both", "agent", "above", ("weak", "strong")), scores, trained)
-    assert both["verdict"] == "does not hold" and both["deciding"] == "strong"
+    assert both["verdict"] == "refuted" and both["deciding"] == "strong"
     tie = check_claim(Claim("beats same", "agent", "above", ("same",)), scores, trained)
     assert tie["verdict"] == "inconclusive" and tie["comparisons"][0]["low"] < 0 < tie["comparisons"][0]["high"]
     assert check_claim(Claim("x", "agent", "above", ("missing",)), scores, trained)["verdict"] == "not checked"

@@ -124,28 +124,40 @@ class BaselineSpec:
 #: How a claim compares its policy with the others (see :class:`Claim`).
 RELATIONS: tuple[str, ...] = ("above", "below", "not_above", "less_variable")
 
+#: The per-episode quantity a claim compares (see :class:`Claim`).
+QUANTITIES: tuple[str, ...] = ("objective", "success")
+
 
 @dataclass(frozen=True)
 class Claim:
     """A claim of the paper about an environment's test comparison, checked by ``gym4real reproduce``.
 
     Each comparison of ``policy`` with one of ``others`` is decided by the two-level (seed, episode)
-    percentile-bootstrap interval of the difference of a statistic of the per-episode objective
-    (:mod:`gym4real.core.stats`): the interquartile mean, or for ``less_variable`` the spread across test
-    episodes (per training seed). A claim of k comparisons uses Bonferroni-simultaneous intervals, each at
-    level 1 - 0.05 / k, so that its verdict holds at a 95 % family level. The rules are in
-    :mod:`gym4real.core.rl.claims`.
+    percentile-bootstrap interval of the difference of a statistic of the per-episode ``quantity``
+    (:mod:`gym4real.core.stats`): the interquartile mean of the objective, the mean of the success
+    indicator (the success rate), or for ``less_variable`` the spread across test episodes (per training
+    seed). The comparisons of a claim use Bonferroni-simultaneous intervals, so that its verdict holds at a
+    95 % family level. The rules are in :mod:`gym4real.core.rl.claims`.
 
     Args:
         text: The claim in the paper's words, with where it is made (and the reason of a margin).
         policy: The RL algorithm (``ppo``, ``qlearning``, ...) or baseline the claim is about.
-        relation: ``above`` (its IQM is above each of ``others``'), ``below``, ``not_above`` (not above any
-            of them by more than ``margin``) or ``less_variable`` (its spread is below theirs).
+        relation: ``above`` (its statistic is above each of ``others``'), ``below``, ``not_above`` (the
+            negation of ``above``: it does not outperform them) or ``less_variable`` (its spread is below
+            theirs).
         others: The policies compared with: baselines or RL algorithms.
-        margin: For ``not_above`` only: the margin of practical equivalence, in the objective's unit; a
-            difference below it is of no practical consequence (the text says why).
-        consistently: For ``above`` and ``below`` only: the claim says the policy is better consistently,
-            so every training seed's IQM must also be on the claimed side of each other policy's IQM.
+        margin: For ``not_above`` only: the margin of practical equivalence, in the objective's unit, of the
+            claim's second, stricter reading (no gain of ``margin`` or more over any of ``others``); the
+            text says why a difference below it is of no practical consequence.
+        consistently: For ``above``, ``below`` and ``not_above``: the claim says *consistently*, so every
+            training seed's own interval must also be on the claimed side (for ``not_above``: the negation
+            of "consistently above").
+        quantity: ``objective`` (the per-episode objective, compared by its IQM) or ``success`` (1 for an
+            episode whose ``success`` reward component is positive, else 0, compared by its mean: the
+            success rate).
+        section: Where the paper makes the claim (``"2.1"``); empty for a check of this suite's own.
+        paper: False for a check of this suite's own, which the paper does not make (shown apart, outside
+            the count of the paper's claims).
     """
 
     text: str
@@ -154,10 +166,17 @@ class Claim:
     others: tuple[str, ...]
     margin: float | None = None
     consistently: bool = False
+    quantity: str = "objective"
+    section: str = ""
+    paper: bool = True
 
     def __post_init__(self) -> None:
         _check(self.relation in RELATIONS, f"claim relation `{self.relation}` is not one of {list(RELATIONS)}")
         _check(bool(self.others), f"claim `{self.text}` compares `{self.policy}` with no other policy")
+        _check(
+            self.quantity in QUANTITIES,
+            f"claim `{self.text}`: quantity `{self.quantity}` is not one of {list(QUANTITIES)}",
+        )
         if self.relation == "not_above":
             _check(
                 self.margin is not None and math.isfinite(self.margin) and self.margin > 0,
@@ -167,8 +186,16 @@ class Claim:
         else:
             _check(self.margin is None, f"claim `{self.text}`: `margin` is for `not_above` claims only")
         _check(
-            not self.consistently or self.relation in ("above", "below"),
-            f"claim `{self.text}`: `consistently` is for `above` and `below` claims only",
+            not self.consistently or self.relation in ("above", "below", "not_above"),
+            f"claim `{self.text}`: `consistently` is for `above`, `below` and `not_above` claims only",
+        )
+        _check(
+            self.relation != "less_variable" or self.quantity == "objective",
+            f"claim `{self.text}`: `less_variable` compares the objective's spread; set quantity `objective`",
+        )
+        _check(
+            not self.paper or not self.section or self.section in self.text,
+            f"claim `{self.text}`: its text names no `{self.section}`; cite the paper's section in the text",
         )
 
 
@@ -193,6 +220,9 @@ class BenchmarkSpec:
         rule_based: The rule-based baselines among ``policies`` (hand-written rules: not ``random``, not an
             oracle reading the simulator, not a replay of recorded decisions, not a pretrained agent); the
             best of them is 1 on the suite score's scale, ``random`` 0 (:mod:`gym4real.core.suite_score`).
+        placements: ``"module:function"``; ``function(env_kwargs)`` returns, per test episode of the protocol,
+            where its object lies in the camera image (``(u, v)`` pixels, read by resetting the env with the
+            episode's seed): the results page draws each success claim's rate over the workspace from them.
     """
 
     env_id: str
@@ -206,9 +236,14 @@ class BenchmarkSpec:
     step_unit: str = "step"
     claims: tuple[Claim, ...] = ()
     rule_based: tuple[str, ...] = ()
+    placements: str | None = None
 
     def __post_init__(self) -> None:
         _check(bool(_ENTRY.match(self.protocol)), f"protocol `{self.protocol}` is not `module:function`")
+        _check(
+            self.placements is None or bool(_ENTRY.match(self.placements)),
+            f"placements `{self.placements}` is not `module:function`",
+        )
         unlisted = sorted(set(self.rule_based) - set(self.policies))
         _check(not unlisted, f"rule-based baselines {unlisted} of `{self.env_id}` are not among its policies")
         _check(

@@ -231,6 +231,46 @@ def difference_ci(
     return snap(diff, scale), snap(low, scale), snap(high, scale)
 
 
+def per_row(statistic: str) -> Batched:
+    """A statistic of each row (run) of each matrix of a batch ``(batch, runs, episodes)``: ``(batch, runs)``.
+
+    ``iqm`` and ``mean``: over the row's episodes; ``spread``: the standard deviation across its episodes.
+    """
+    if statistic == "iqm":
+        return lambda x: sps.trim_mean(x, 0.25, axis=2)
+    if statistic == "mean":
+        return lambda x: x.mean(axis=2)
+    if statistic == "spread":
+        return lambda x: x.std(axis=2)
+    raise ValueError(f"statistic `{statistic}` is not `iqm`, `mean` or `spread`")
+
+
+def per_seed_difference_ci(
+    a: np.ndarray,
+    b: np.ndarray,
+    b_trained: bool,
+    statistic: str = "iqm",
+    seed: int = 0,
+    level: float = 0.95,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per row (training seed) ``i`` of ``a``: ``statistic(a[i]) - statistic(b)`` and its own interval.
+
+    Each replicate draws the test episodes with replacement, the same ones for ``a`` and ``b`` (pairing by
+    episode); the row ``a[i]`` is kept (the interval is this seed's, not the algorithm's), ``b``'s rows are
+    drawn too when ``b_trained``. Values within float noise of 0 (see :func:`snap`) are 0.
+
+    Returns:
+        ``(estimates, lows, highs)``, each of shape ``(runs of a,)``.
+    """
+    row, pooled = per_row(statistic), batched(statistic)
+    found = _matrices([a, b])
+    scale = max(float(np.abs(m).max()) for m in found)
+    point, low, high = bounds(found, [False, b_trained], lambda x, y: row(x) - pooled(y)[:, None], seed, level=level)
+    noise = np.abs(np.stack([point, low, high])) <= RTOL * scale
+    point, low, high = np.where(noise, 0.0, np.stack([point, low, high]))
+    return point, low, high
+
+
 def _improvement(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """P(X > Y) of each replicate: over episodes and run pairs, 1 when x > y, 1/2 when tied (counted exactly)."""
     halves = np.zeros(len(x), dtype=np.int64)  # twice the wins: 2 per win, 1 per tie
@@ -279,20 +319,20 @@ def per_seed(scores: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def verdict(relation: str, low: float, high: float, margin: float | None = None) -> tuple[str, str]:
     """The verdict of one comparison from the interval ``[low, high]`` of a difference (policy - other).
 
-    ``above``: holds when the interval lies above 0, does not hold when it lies at or below 0;
-    ``below`` and ``less_variable``: the mirror image; otherwise inconclusive. ``not_above`` (with its
-    margin of practical equivalence): holds when the interval lies below ``+margin``, does not hold when it
-    lies above 0, else inconclusive.
+    ``above``: holds when the interval lies above 0, is refuted when it lies at or below 0;
+    ``below`` and ``less_variable``: the mirror image; otherwise inconclusive. ``not_above`` (the margin
+    reading of a negative claim, with its margin of practical equivalence): holds when the interval lies
+    below ``+margin``, is refuted when it lies above 0, else inconclusive.
 
     Returns:
-        ``(verdict, rule)``: ``holds``, ``does not hold`` or ``inconclusive``, and the name of the rule that
+        ``(verdict, rule)``: ``holds``, ``refuted`` or ``inconclusive``, and the name of the rule that
         decided it (``interval above 0``, ...).
     """
     if relation == "not_above":
         if margin is None or not margin > 0:
             raise ValueError(f"a `not_above` comparison needs a positive margin of practical equivalence, not {margin}")
         if low > 0:
-            return "does not hold", "interval above 0"
+            return "refuted", "interval above 0"
         if high < margin:
             return "holds", "interval below the margin"
         return "inconclusive", "interval reaches the margin and 0"
@@ -302,10 +342,10 @@ def verdict(relation: str, low: float, high: float, margin: float | None = None)
         if low > 0:
             return "holds", "interval above 0"
         if high <= 0:
-            return "does not hold", "interval at or below 0"
+            return "refuted", "interval at or below 0"
     else:
         if high < 0:
             return "holds", "interval below 0"
         if low >= 0:
-            return "does not hold", "interval at or above 0"
+            return "refuted", "interval at or above 0"
     return "inconclusive", "interval contains 0"

@@ -177,6 +177,29 @@ def gym4real_register_baselines() -> list[BaselineSpec]:
     ]
 
 
+#: The picking claims: the paper's on picking-v0 (Sec. 2.4.1 evaluates picking-v0 only), this suite's own on v1.
+PICKING_CLAIMS = {
+    PICKING_V0: Claim(
+        "PPO achieves higher success rates than the fixed-action rule-based baseline on picking-v0 (Sec. 2.4.1; "
+        'the paper\'s "more evenly distributed" refers to its workspace heatmaps, drawn in this section)',
+        "ppo",
+        "above",
+        ("fixed",),
+        quantity="success",
+        section="2.4.1",
+    ),
+    PICKING_V1: Claim(
+        "PPO achieves a higher success rate than the fixed-action baseline on picking-v1 (this suite's own check: "
+        "the paper evaluates picking-v0 only)",
+        "ppo",
+        "above",
+        ("fixed",),
+        quantity="success",
+        paper=False,
+    ),
+}
+
+
 @hookimpl
 def gym4real_register_benchmarks() -> list[BenchmarkSpec | TrainingSpec]:
     """Seeded evaluation episodes per environment and the PPO presets of the paper's appendix."""
@@ -189,13 +212,10 @@ def gym4real_register_benchmarks() -> list[BenchmarkSpec | TrainingSpec]:
             rule_based=("fixed",),  # `oracle` reads the simulator's true pose
             final_info=("objects_picked",),
             figures="gym4real.robofeeder.figures:bench_heatmap" if env_id == PICKING_V0 else None,
+            placements="gym4real.robofeeder.evaluation:test_placements" if env_id == PICKING_V0 else None,
             description="100 seeded episodes (seeds 1000..1099), one object uniformly placed in the spawn area",
             step_unit="grasp attempt",
-            claims=(
-                Claim(
-                    "PPO achieves higher success than the fixed-action baseline (Sec. 2.4)", "ppo", "above", ("fixed",)
-                ),
-            ),
+            claims=(PICKING_CLAIMS[env_id],),
         )
         for env_id in (PICKING_V0, PICKING_V1)
     ]
@@ -208,7 +228,16 @@ def gym4real_register_benchmarks() -> list[BenchmarkSpec | TrainingSpec]:
         figures="gym4real.robofeeder.figures:bench_planning",
         description="50 seeded episodes (seeds 1000..1049), three objects",
         step_unit="planning decision (one object chosen, or idle)",
-        claims=(Claim("PPO picks more efficiently than the Random strategy (Sec. 2.4)", "ppo", "above", ("random",)),),
+        claims=(
+            Claim(
+                "PPO picks more efficiently than the Random strategy (Sec. 2.4.2: the average return of its planning "
+                "comparison)",
+                "ppo",
+                "above",
+                ("random",),
+                section="2.4.2",
+            ),
+        ),
     )
     trainings = [
         TrainingSpec(env_id, "ppo", preset, f"gym4real.robofeeder:rl/{kind}_ppo_{preset}.yaml")

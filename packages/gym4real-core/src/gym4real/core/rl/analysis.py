@@ -22,7 +22,7 @@ import pandas as pd
 
 from gym4real.core import stats
 from gym4real.core.episodes import score_matrices
-from gym4real.core.rl.claims import check_claim, identical
+from gym4real.core.rl.claims import check_claim, identical, quantity_scores
 
 #: Thresholds of the performance profile.
 PROFILE_POINTS = 101
@@ -99,12 +99,18 @@ def improvement(episodes: pd.DataFrame) -> pd.DataFrame:
 
 
 def check_claims(env_id: str, budget: str, episodes: pd.DataFrame) -> list[dict[str, Any]]:
-    """Every claim the env's protocol declares, checked on the scores of ``episodes``."""
+    """Every claim the env's protocol declares, checked on the scores of ``episodes`` (each on its quantity)."""
     from gym4real.core.benchmark import protocol
 
     scores, seeds = _read(episodes)
     trained = {n for n in scores if seeds[n]}
-    return [{"env_id": env_id, "budget": budget, **check_claim(c, scores, trained)} for c in protocol(env_id).claims]
+    records = []
+    for claim in protocol(env_id).claims:
+        own = scores if claim.quantity == "objective" else quantity_scores(episodes, claim.quantity)
+        beside = None if claim.quantity == "objective" else scores
+        record = check_claim(claim, own, trained, seeds.get(claim.policy) or None, beside)
+        records.append({"env_id": env_id, "budget": budget, **record})
+    return records
 
 
 def profile_figure(episodes: pd.DataFrame, path: Path, title: str) -> None:

@@ -37,7 +37,7 @@ import pandas as pd
 from gym4real.core import stats
 from gym4real.core.benchmark import BenchmarkResult, benchmark, protocol
 from gym4real.core.errors import Gym4RealError
-from gym4real.core.rl import analysis, provenance
+from gym4real.core.rl import analysis, provenance, workspace
 from gym4real.core.rl.plan import Item, check_request, plan, slug
 from gym4real.core.rl.progress import PlanProgress
 from gym4real.core.rl.runner import describe_error, train_plan
@@ -212,6 +212,8 @@ def reproduce_env(
     }
     (folder / "report.json").write_text(json.dumps(report, indent=1))
     claims = analysis.analyse(folder, env_id, budget)
+    if workspace.write_placements(folder, env_id):
+        workspace.heatmap_figure(folder, env_id)
     groups = {name: [name] for name in baselines}
     for run in runs:
         groups.setdefault(run.algo, []).append(run.policy)

@@ -22,8 +22,9 @@ import numpy as np
 import pandas as pd
 
 from gym4real.core import stats
-from gym4real.core.rl import analysis
-from gym4real.core.rl.claims import RULES
+from gym4real.core.numbers import human
+from gym4real.core.rl import analysis, summary_figure, workspace
+from gym4real.core.rl.claims import QUANTITIES, RULES, VERDICTS
 
 #: The name of a results folder: ``<env>-<budget>``.
 FOLDER = re.compile(r"^(?P<env>[a-z0-9-]+)-(?P<budget>paper|quick)$")
@@ -37,20 +38,27 @@ PUBLISHED = (
     "report.json",
     "learning_curves.csv",
     "error.txt",
+    workspace.PLACEMENTS,
 )
 _FIGURES = (
     ("cumulative_reward.png", "mean cumulative objective on the test episodes (95 % band)"),
     ("returns_boxplot.png", "per-episode objective (all seeds' episodes)"),
     ("performance_profile.png", "performance profile: fraction of runs x episodes above each score"),
     ("learning_curves.png", "learning curves: validation return during training (each seed, mean, 95 % band)"),
+    (
+        workspace.HEATMAP,
+        "success rate over the workspace, per policy of the success claim: each test episode placed where its "
+        "object lay (`placements.csv`, read by resetting the env with the test protocol's seeds), its success "
+        "from `episodes.csv`",
+    ),
 )
 QUICK = "pipeline check, not a verdict"
 
 
 def _fmt(v: Any, scale: float = 0.0) -> str:
-    """A number with four significant digits; float noise (within ``stats.RTOL`` of ``scale``) as 0."""
+    """A number written for people (:func:`~gym4real.core.numbers.human`); float noise (``stats.RTOL``) as 0."""
     if isinstance(v, float):
-        return "-" if v != v else f"{stats.snap(v, scale):.4g}"
+        return human(stats.snap(v, scale))
     return str(v)
 
 
@@ -181,11 +189,55 @@ def _verdict(verdict: str, budget: str, bold: bool = True) -> str:
     return f"**{verdict}**" if bold else verdict
 
 
+_STATISTIC = {"iqm": "IQM", "mean": "success rate", "spread": "spread"}
+
+
 def _comparison(c: dict[str, Any], comp: dict[str, Any], scale: float) -> str:
-    stat = "IQM" if comp["statistic"] == "iqm" else comp["statistic"]
+    stat = _STATISTIC.get(comp["statistic"], comp["statistic"])
+    scale = 1.0 if comp["statistic"] == "mean" and c.get("quantity") == "success" else scale
     text = f"{stat} {comp['a']} - {comp['b']}: {_fmt(comp['estimate'], scale)} {_ci(comp['low'], comp['high'], scale)}"
+    if "objective" in comp:  # the objective, shown beside a claim on another quantity
+        o = comp["objective"]
+        text += f" (objective IQM beside: {_fmt(o['estimate'])} {_ci(o['low'], o['high'])})"
+    if "seeds" in comp:
+        counts = Counter(s["verdict"] for s in comp["seeds"])
+        text += "; seeds' own intervals: " + ", ".join(f"{counts[v]} {v}" for v in VERDICTS if counts[v])
+        text += "".join(
+            f"; seed {s['seed']}: {_fmt(s['estimate'], scale)} {_ci(s['low'], s['high'], scale)}"
+            for s in comp["seeds"]
+            if s["verdict"] == "refuted"
+        )
     if c.get("margin") is not None:
         text += f" (margin {_fmt(float(c['margin']))}, detectable ±{_fmt(comp['detectable'], scale)})"
+    return text
+
+
+def _rule(c: dict[str, Any]) -> str:
+    """The rule column of a claim: its rule; a negative claim's also says its positive's and the margin reading."""
+    if "positive_verdict" not in c:
+        return str(c["rule"])
+    margin = c["margin_reading"]
+    positive = next((x for x in c["comparisons"] if x["b"] == c.get("deciding")), None)
+    why = f" ({positive['rule']})" if positive and c["positive_verdict"] != "holds" else ""
+    return (
+        f"negation: its positive claim is {c['positive_verdict']}{why}; margin reading (second, stricter): "
+        f"{margin['verdict']} ({margin['rule']})"
+    )
+
+
+def _shows(section: Section, claim: dict[str, Any]) -> str:
+    """What the run shows about a check of this suite's own, in plain numbers (objective IQMs, success per seed)."""
+    rows = section.summary.sort_values("iqm", ascending=False)
+    ranked = ", ".join(f"`{r['policy']}` {_fmt(float(r['iqm']), section.scale)}" for r in rows.to_dict("records"))
+    text = f"What the run shows: the IQMs of the objective rank {ranked}."
+    if "success" in section.episodes.columns:
+        mine = section.episodes[section.episodes["policy"] == claim["policy"]]
+        rates = (mine["success"] > 0).groupby(mine["seed"]).mean()
+        if len(rates):
+            text += (
+                f" `{claim['policy']}`'s success rate per seed: {rates.min():.0%} to {rates.max():.0%}"
+                f" ({', '.join(f'{r:.0%}' for r in rates)})."
+            )
     return text
 
 
@@ -271,33 +323,43 @@ def _section(folder: Path, section: Section | None, version: str) -> list[str]:
                 f"| {row['agent']} | {row['baseline']} | {row['p']:.3f} [{row['low']:.3f}, {row['high']:.3f}] |"
             )
         lines.append("")
-    lines += [
-        "Claims of the paper:",
-        "",
-        "| claim | comparison: difference [interval] | level | verdict | rule |",
-        "|---|---|---|---|---|",
-    ]
-    for c in section.claims:
-        if not c["comparisons"]:
-            lines.append(f"| {c['text']} | - | - | {_verdict(c['verdict'], budget)} | {c['rule']} |")
+    for own in (False, True):
+        claims = [c for c in section.claims if c.get("paper", True) is not own]
+        if not claims:
             continue
-        for i, comp in enumerate(c["comparisons"]):
-            lines.append(
-                f"| {c['text'] if i == 0 else ''} | {_comparison(c, comp, scale)} | {comp['level']:.4g} "
-                f"| {_verdict(comp['verdict'], budget, bold=False)} | {comp['rule']} |"
-            )
-        lines.append(f"| | **claim** | {c['family_level']:.2g} | {_verdict(c['verdict'], budget)} | {c['rule']} |")
-    lines.append("")
+        title = "This suite's own checks (not claims of the paper):" if own else "Claims of the paper:"
+        lines += [
+            title,
+            "",
+            "| claim | comparison: difference [interval] | level | verdict | rule |",
+            "|---|---|---|---|---|",
+        ]
+        for c in claims:
+            if not c["comparisons"]:
+                lines.append(f"| {c['text']} | - | - | {_verdict(c['verdict'], budget)} | {c['rule']} |")
+                continue
+            for i, comp in enumerate(c["comparisons"]):
+                lines.append(
+                    f"| {c['text'] if i == 0 else ''} | {_comparison(c, comp, scale)} | {comp['level']:.4g} "
+                    f"| {_verdict(comp['verdict'], budget, bold=False)} | {comp['rule']} |"
+                )
+            lines.append(f"| | **claim** | {c['family_level']:.2g} | {_verdict(c['verdict'], budget)} | {_rule(c)} |")
+        lines.append("")
+        lines += [_shows(section, c) for c in claims if own] + ([""] if own else [])
     for file, caption in _FIGURES:
         if (folder / file).exists():
             lines += [f"![{report['env_id']}: {caption}]({name}/{file})", ""]
     return lines
 
 
-def claims_table(claims: list[dict[str, Any]], scales: dict[str, float] | None = None) -> str:
-    """A short Markdown table: per claim, the verdict, its rule and the deciding comparison."""
+def claims_table(claims: list[dict[str, Any]], scales: dict[str, float] | None = None, own: bool = False) -> str:
+    """A short Markdown table: per claim of the paper (``own``: per own check), verdict, rule, deciding comparison."""
+    claims = [c for c in claims if c.get("paper", True) is not own]
+    if not claims:
+        return ""
+    column = "check of this suite's own" if own else "paper's claim"
     lines = [
-        "| env | budget | paper's claim | verdict | rule | deciding comparison: difference [interval] |",
+        f"| env | budget | {column} | verdict | rule | deciding comparison: difference [interval] |",
         "|---|---|---|---|---|---|",
     ]
     for c in claims:
@@ -306,13 +368,53 @@ def claims_table(claims: list[dict[str, Any]], scales: dict[str, float] | None =
         comp = next((x for x in c["comparisons"] if x["b"] == c.get("deciding")), None)
         where = _comparison(c, comp, scale) if comp else "-"
         lines.append(
-            f"| `{env}` | {c['budget']} | {c['text']} | {_verdict(c['verdict'], c['budget'])} | {c['rule']} | {where} |"
+            f"| `{env}` | {c['budget']} | {c['text']} | {_verdict(c['verdict'], c['budget'])} | {_rule(c)} | {where} |"
         )
     return "\n".join(lines) + "\n"
 
 
+def _verdicts(claims: list[dict[str, Any]], scales: dict[str, float]) -> list[str]:
+    """The verdict tables (the paper's claims, then this suite's own checks) and the three verdicts' definitions."""
+    paper = sum(c.get("paper", True) for c in claims)
+    own = claims_table(claims, scales, own=True)
+    return [
+        f"## Verdicts on the paper's claims ({paper})",
+        "",
+        claims_table(claims, scales),
+        *(
+            [
+                "Checks of this suite's own, outside the paper's claims: the paper does not make them.",
+                "",
+                own,
+            ]
+            if own
+            else []
+        ),
+        "The verdicts (each with the rule that decided it; the rules, statistics and levels are under "
+        "[Methods](#methods)):",
+        "",
+        *(f"- **{word}**: {words}." for word, words in VERDICTS.items()),
+        "",
+    ]
+
+
+def _summary_figure(sections: list[Section], out: Path) -> list[str]:
+    """The page's opening figure (every agent and baseline per env, :mod:`summary_figure`) and its link."""
+    panels = [
+        (s.report["env_id"], " + ".join(s.report["objective"]), s.summary) for s in sections if s.budget == "paper"
+    ]
+    if summary_figure.write(panels, out) is None:
+        return []
+    return [
+        f"![Every agent and baseline per env: IQM of the objective and its 95 % interval]({summary_figure.FILE})",
+        "",
+    ]
+
+
 def _method() -> list[str]:
     return [
+        "## Methods",
+        "",
         "Generated by `gym4real reproduce` from the files beside this page alone: every RL algorithm of the "
         "paper trained per seed with the budget's training presets, then tested on the environment's test "
         "protocol beside the baselines. `<env>-<budget>/episodes.csv` holds every test score (one row per "
@@ -334,8 +436,15 @@ def _method() -> list[str]:
         f"**Budgets.** An environment is shown at the `paper` budget when it was run there, else at the `quick` "
         f"budget (the smoke presets: seconds of training), whose verdicts are a *{QUICK}*.",
         "",
+        "**Quantities of the claims.** A claim compares one per-episode quantity:",
+        "",
+        *(f"- *{name}*: {words}." for name, words in QUANTITIES.items()),
+        "",
         "**Rules of the verdicts.** Each claim comparison is the difference of a statistic (policy - other) "
-        "with its interval; the rule that decided each verdict is named beside it:",
+        "with its interval; a *consistently* claim also takes each training seed's own interval (that seed's "
+        "test episodes resampled, paired with the other policy), and a seed counts as better or worse only when "
+        "its interval says so. No verdict rests on a point estimate. The rule that decided each verdict is named "
+        "beside it:",
         "",
         *(f"- *{name}*: {words}." for name, words in RULES.items()),
         "",
@@ -438,26 +547,25 @@ def write_page(out: Path, page: str | Path | None = None) -> Path:
         + (f"**Sections from other code versions, flagged below: {', '.join(others)}.** " if others else "")
         + f"Versions: {', '.join(f'{k} {v}' for k, v in record['versions'].items())}; {record['platform']}.",
         "",
-        *_method(),
-        claims_table(claims, scales),
-        "",
+        *_summary_figure(list(sections.values()), out),
+        *_verdicts(claims, scales),
         *suite_scores(list(sections.values())),
     ]
     body: list[str] = []
     for folder in folders:
         body += _section(folder, sections.get(folder), version)
-    text = "\n".join(head + body)
+    text = "\n".join(head + body + _method())
     (out / "results.md").write_text(text)
     (out / "claims.json").write_text(json.dumps(claims, indent=1))
-    (out / "claims.md").write_text(claims_table(claims, scales))
+    (out / "claims.md").write_text(claims_table(claims, scales) + claims_table(claims, scales, own=True))
     (out / "manifest.json").write_text(json.dumps(record, indent=1))
     if page is None:
         return out / "results.md"
     page = Path(page)
     page.mkdir(parents=True, exist_ok=True)
     (page / "index.md").write_text(text)
-    for name in ("claims.json", "manifest.json"):
-        if (page / name).resolve() != (out / name).resolve():
+    for name in ("claims.json", "manifest.json", summary_figure.FILE):
+        if (out / name).exists() and (page / name).resolve() != (out / name).resolve():
             shutil.copy(out / name, page / name)
     shutil.rmtree(page / "figures", ignore_errors=True)  # the layout before raw data: figures/<env>-<budget>/
     for folder in folders:
