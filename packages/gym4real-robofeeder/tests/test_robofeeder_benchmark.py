@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from gym4real.core.benchmark import benchmark
 from gym4real.robofeeder import figures
 from gym4real.robofeeder.evaluation import planning_test_episodes
@@ -40,3 +42,18 @@ def test_bench_draws_the_papers_figures(tmp_path: Path) -> None:
     assert (tmp_path / "planning_returns.png").stat().st_size > 0
     rows = (tmp_path / "planning_returns.csv").read_text().splitlines()
     assert len(rows) == 1 + 5 * 5  # 1 episode per point, 5 object counts, 5 seeds
+
+
+def test_each_test_episodes_object_lies_in_the_spawn_area_where_its_seed_puts_it() -> None:
+    from gym4real.robofeeder.config import SpawnSection
+    from gym4real.robofeeder.evaluation import test_placements
+
+    found = np.array(test_placements({"preset": "test"}))
+    assert found.shape == (100, 2) and len({tuple(p) for p in found.round(3)}) == 100  # a position per seed
+    spawn, half = SpawnSection(), 300 / 2  # the test preset's 300-px image
+    lo = (np.array([spawn.x_range[0], spawn.y_range[0]]) + 1) * half
+    hi = (np.array([spawn.x_range[1], spawn.y_range[1]]) + 1) * half
+    settle = 15.0  # px: the silhouette's centre lies off the placed origin, and the part settles on the floor
+    assert np.all(found >= lo - settle) and np.all(found <= hi + settle)
+    again = np.array(test_placements({"preset": "test"})[:1])
+    assert np.array_equal(again, found[:1])  # the same seed places the object at the same place

@@ -28,7 +28,7 @@ def test_placements(env_kwargs: dict[str, Any]) -> list[tuple[float, float]]:
 
     env = gym.make(PICKING_V0, **env_kwargs)
     try:
-        sim = env.unwrapped.sim
+        sim = env.unwrapped.sim  # type: ignore[attr-defined]
         found = []
         for episode in test_episodes(env_kwargs):
             env.reset(seed=episode["seed"], options=episode["options"])

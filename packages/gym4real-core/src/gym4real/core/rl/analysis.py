@@ -158,3 +158,18 @@ def analyse(folder: Path, env_id: str, budget: str) -> list[dict[str, Any]]:
     (folder / "claims.json").write_text(json.dumps(claims, indent=1))
     profile_figure(episodes, folder / "performance_profile.png", env_id)
     return claims
+
+
+def recheck(folder: Path) -> list[dict[str, Any]]:
+    """Decide a published section's claims again from its ``episodes.csv`` under the current rules, no training.
+
+    Rewrites ``claims.json`` (env and budget from ``report.json``) and, where the section has ``placements.csv``,
+    its workspace heat map; ``results_page.write_page(page, page)`` then renders the page from these files.
+    """
+    from gym4real.core.rl import workspace
+
+    report = json.loads((folder / "report.json").read_text())
+    claims = check_claims(report["env_id"], report["budget"], pd.read_csv(folder / "episodes.csv"))
+    (folder / "claims.json").write_text(json.dumps(claims, indent=1))
+    workspace.heatmap_figure(folder, report["env_id"])
+    return claims

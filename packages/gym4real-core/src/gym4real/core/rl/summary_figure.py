@@ -40,7 +40,12 @@ def figure(panels: list[tuple[str, str, pd.DataFrame]]) -> Any:
 
     heights = [0.5 + 0.32 * len(s) for _, _, s in panels]
     fig, axes = plt.subplots(
-        len(panels), 1, figsize=(8.0, 0.9 + sum(heights)), squeeze=False, gridspec_kw={"height_ratios": heights}
+        len(panels),
+        1,
+        figsize=(8.0, 0.9 + sum(heights)),
+        squeeze=False,
+        gridspec_kw={"height_ratios": heights},
+        layout="constrained",
     )
     for ax, (env_id, objective, summary) in zip(axes[:, 0], panels, strict=True):
         names = summary["policy"].tolist()
@@ -59,7 +64,6 @@ def figure(panels: list[tuple[str, str, pd.DataFrame]]) -> Any:
         ax.grid(axis="x", alpha=0.3)
         ax.set_title(f"{env_id}: IQM of the objective ({objective}), 95 % interval; higher is better", fontsize=9)
     fig.suptitle("Every agent (red diamonds) and baseline on each env's test protocol", fontsize=10)
-    fig.tight_layout()
     return fig
 
 

@@ -91,7 +91,7 @@ def heatmap_figure(folder: Path, title: str) -> Path | None:
         np.linspace(np.floor(u.min()), np.ceil(u.max()), BINS + 1),
         np.linspace(np.floor(v.min()), np.ceil(v.max()), BINS + 1),
     )
-    fig, axes = plt.subplots(1, len(policies), figsize=(4.2 * len(policies), 4.0), squeeze=False)
+    fig, axes = plt.subplots(1, len(policies), figsize=(4.2 * len(policies), 4.2), squeeze=False, layout="constrained")
     image = None
     for ax, policy in zip(axes[0], policies, strict=True):
         rates, counts = success_grid(episodes, placements, policy, edges)
@@ -108,11 +108,16 @@ def heatmap_figure(folder: Path, title: str) -> Path | None:
                     )
         total = float((episodes.loc[episodes["policy"] == policy, "success"] > 0).mean())
         seeds = f", {runs} seeds pooled" if runs > 1 else ""
-        ax.set(xlabel="image u (px)", ylabel="image v (px)", title=f"{policy}: success rate {total:.2f}{seeds}")
+        ax.set(xlabel="image u (px)", ylabel="image v (px)" if ax is axes[0][0] else "")
+        ax.set_title(f"{policy}: success rate {total:.2f}{seeds}")
         ax.title.set_fontsize(9)
     if image is not None:
         fig.colorbar(image, ax=axes[0].tolist(), label="success rate", shrink=0.8)
-    fig.suptitle(f"{title}: success rate over the workspace ({len(placements)} test episodes, {BINS} x {BINS} cells)")
+    fig.suptitle(
+        f"{title}: success rate over the workspace\n({len(placements)} test episodes in {BINS} x {BINS} cells; "
+        "n: episodes x seeds in a cell)",
+        fontsize=10,
+    )
     path = folder / HEATMAP
     fig.savefig(path, dpi=110)
     plt.close(fig)
