@@ -221,7 +221,7 @@ def _rule(c: dict[str, Any]) -> str:
     why = f" ({positive['rule']})" if positive and c["positive_verdict"] != "holds" else ""
     return (
         f"negation: its positive claim is {c['positive_verdict']}{why}; margin reading (second, stricter): "
-        f"{margin['verdict']} ({margin['rule']})"
+        f"{margin['verdict']} ({margin['rule']}, against {margin['deciding']})"
     )
 
 
