@@ -180,6 +180,42 @@ def test_a_reference_measured_on_another_protocol_is_refused(tmp_path: Path) -> 
         mo_reference.load(env_id, tmp_path)
 
 
+def test_add_front_adds_a_weighted_front_and_keeps_the_rest(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    env_id = "gym4real/dam-mo-v0"
+    shutil.copy(mo_reference.path_of(env_id), tmp_path)
+    before = mo_reference.load(env_id, tmp_path)
+    assert before is not None
+    scale, episodes = before.scale, before.random_episodes.shape[0]
+
+    def planner(env: Any, weights: np.ndarray, seed: int) -> np.ndarray:
+        assert seed == 3
+        return weights
+
+    def fake_run(env_id: str, build: Any, plan: Any, kwargs: Any, label: str) -> np.ndarray:
+        # a planner whose every test episode scores its weights on the normalised scale, with no simulation
+        weights = build(None)
+        return np.tile(scale.reference_point + weights * (scale.top - scale.reference_point), (episodes, 1))
+
+    monkeypatch.setattr(mo_reference, "run_objectives", fake_run)
+    mo_reference.add_front(
+        env_id, "hindsight", "hindsight", "a planner scoring its weights", planner, seed=3, folder=tmp_path
+    )
+    after = mo_reference.load(env_id, tmp_path)
+    assert after is not None
+    entry = after.record["fronts"]["hindsight"]
+    assert len(entry["policies"]) == 50 and entry["kind"] == "hindsight"
+    # points (k/49, 1 - k/49): a staircase of 49 columns of width 1/49 and heights 1 - k/49, k = 1..49
+    assert entry["hypervolume"] == pytest.approx(sum((1 - k / 49) / 49 for k in range(1, 50)), rel=1e-9)
+    assert entry["hypervolume"] == pytest.approx(24 / 49, rel=1e-9)
+    # every weight's best point is a corner of the lattice: utility max(w1, w2)
+    assert entry["eum"] == pytest.approx(np.mean([max(k / 49, 1 - k / 49) for k in range(50)]), rel=1e-9)
+    np.testing.assert_array_equal(after.scale.reference_point, before.scale.reference_point)
+    for name in before.fronts:
+        assert after.record["fronts"][name] == before.record["fronts"][name]
+    with pytest.raises(ConfigError, match="already has a front `hindsight`"):
+        mo_reference.add_front(env_id, "hindsight", "hindsight", "again", planner, folder=tmp_path)
+
+
 def test_the_reference_point_rule_needs_a_range() -> None:
     with pytest.raises(ConfigError, match="same on every test episode"):
         mo_reference.reference_scale(np.array([[1.0, 0.0], [2.0, 0.0]]), 0.1)
