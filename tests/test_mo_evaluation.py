@@ -263,6 +263,18 @@ def test_tank_level_rule_at_the_default_levels_is_the_default_baseline() -> None
 # -- evaluate --mo ------------------------------------------------------------------------------------------------
 
 
+def test_info_json_shows_the_objectives_and_the_reference_point(capsys: pytest.CaptureFixture[str]) -> None:
+    from gym4real.core.cli import main
+
+    main(["info", "gym4real/wds-mo-v0", "--json"])
+    record = json.loads(capsys.readouterr().out)["multi_objective"]
+    assert [o["name"] for o in record["objectives"]] == ["dsr", "overflow"]
+    shipped = mo_reference.load("gym4real/wds-mo-v0")
+    assert shipped is not None
+    assert record["reference_point"] == shipped.scale.reference_point.tolist()
+    assert set(record["reference_fronts"]) == {"constant_pumps", "tank_level_rule", "rule_based"}
+
+
 def test_cli_arguments_group_into_sets_by_name() -> None:
     found = agents_of(["a=mean", "a=max", "b=pkg.mod:factory", "ead"])
     assert found == {"a": ["mean", "max"], "b": "pkg.mod:factory", "agent": "ead"}

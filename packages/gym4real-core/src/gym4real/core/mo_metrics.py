@@ -19,9 +19,11 @@ from __future__ import annotations
 
 import itertools
 import math
+from typing import Any
 
-import moocore
 import numpy as np
+
+from gym4real.core.errors import ConfigError
 
 #: The fewest weights of the EUM's simplex lattice (MORL-Baselines evaluates EUM over 50 to 100 weights).
 WEIGHTS = 50
@@ -49,10 +51,21 @@ def simplex_weights(objectives: int, least: int = WEIGHTS) -> np.ndarray:
     return np.array(rows[::-1], dtype=float) / divisions
 
 
+def _moocore() -> Any:
+    """The ``moocore`` module (extra ``mo``), or an error that says how to install it."""
+    try:
+        import moocore
+    except ImportError as exc:
+        raise ConfigError(
+            'multi-objective metrics need moocore (the `mo` extra): `pip install "gym4real-core[mo]"`'
+        ) from exc
+    return moocore
+
+
 def nondominated(points: np.ndarray) -> np.ndarray:
     """A boolean mask of the points no other point dominates (maximising; duplicates are all kept)."""
     points = np.atleast_2d(np.asarray(points, dtype=float))
-    return np.asarray(moocore.is_nondominated(points, maximise=True, keep_weakly=True))
+    return np.asarray(_moocore().is_nondominated(points, maximise=True, keep_weakly=True))
 
 
 def hypervolume(points: np.ndarray, reference: np.ndarray | None = None) -> float:
@@ -68,7 +81,7 @@ def hypervolume(points: np.ndarray, reference: np.ndarray | None = None) -> floa
     inside = points[(points > ref).all(axis=1)]  # only a point dominating the reference point adds volume
     if not len(inside):
         return 0.0
-    return float(moocore.hypervolume(inside, ref=ref, maximise=True))
+    return float(_moocore().hypervolume(inside, ref=ref, maximise=True))
 
 
 def expected_utility(points: np.ndarray, weights: np.ndarray) -> float:

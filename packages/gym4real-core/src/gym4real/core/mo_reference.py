@@ -200,17 +200,21 @@ def path_of(env_id: str, folder: str | Path | None = None) -> Path:
 def _check(
     env_id: str, record: dict[str, Any], spec: MultiObjectiveSpec, installed: dict[str, Any], where: str
 ) -> None:
+    def measured(objectives: list[dict[str, Any]]) -> list[tuple[str, list[str]]]:  # descriptions are prose
+        return [(o["name"], list(o["components"])) for o in objectives]
+
     declared = spec.record()
     differences = [
         f"{key}: {record['fingerprint'].get(key)!r} in the file, {installed.get(key)!r} installed"
         for key in FINGERPRINT_FIELDS
         if record["fingerprint"].get(key) != installed.get(key)
     ]
-    differences += [
-        f"{key}: {record.get(key)!r} in the file, {declared[key]!r} declared"
-        for key in ("objectives", "margin")
-        if record.get(key) != declared[key]
-    ]
+    if measured(record["objectives"]) != measured(declared["objectives"]):
+        differences.append(
+            f"objectives: {measured(record['objectives'])} in the file, {measured(declared['objectives'])} declared"
+        )
+    if record["margin"] != declared["margin"]:
+        differences.append(f"margin: {record['margin']} in the file, {declared['margin']} declared")
     if differences:
         raise ReferenceMismatchError(
             f"the multi-objective reference of `{env_id}` ({where}) was measured on another protocol or for other "

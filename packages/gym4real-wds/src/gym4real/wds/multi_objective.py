@@ -36,7 +36,8 @@ SPECS = (
             Objective(
                 "overflow",
                 ("overflow",),
-                "overflow risk: the sum over the hours of the tanks' penalty above 95 % of their height (<= 0)",
+                "overflow risk: minus the sum over the hours of each tank's level above 95 % of its height, as a "
+                "fraction of the last 5 % (0 to 1 per tank and hour), <= 0",
             ),
         ),
         sweeps=(CONSTANT_PUMPS, TANK_LEVEL),
