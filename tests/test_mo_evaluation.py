@@ -299,6 +299,32 @@ def test_a_weight_conditioned_factory_is_asked_for_each_eum_weight_and_seed() ->
     assert {s for _, s in calls} == {7}
 
 
+def test_an_agents_hypervolume_is_the_mean_over_its_seeds_with_a_seed_and_episode_interval() -> None:
+    from gym4real.core.mo_eval import AgentRun, _agent_record
+
+    spec = mo_spec("gym4real/wds-mo-v0")
+    scale = mo_reference.Scale(np.zeros(2), np.ones(2))  # raw values are normalised ones
+    # seed 0: one policy at (1, 1) on both episodes (volume 1); seed 1: (0.5, 0.5) (volume 0.25)
+    values = np.array([[[[1.0, 1.0], [1.0, 1.0]]], [[[0.5, 0.5], [0.5, 0.5]]]])
+    run = AgentRun("agent", ["p"], [0, 1], True, values)
+    front = mo_reference.Front(
+        "hand", "rule_based", "(2, 1) and (1, 2)", ["a", "b"], np.array([[[2.0, 1.0]] * 2, [[1.0, 2.0]] * 2])
+    )
+    reference = mo_reference.MOReference("gym4real/wds-mo-v0", spec, scale, np.zeros((2, 2)), {"hand": front}, {})
+    record = _agent_record(run, reference)
+    hv = record["hypervolume"]
+    assert hv["value"] == pytest.approx((1.0 + 0.25) / 2)
+    # resampling the seeds gives both, one or the other: 0.25, 0.625 or 1, so the interval spans them
+    assert hv["low"] == pytest.approx(0.25) and hv["high"] == pytest.approx(1.0)
+    # the front's volume is 2 + 2 - 1 = 3, on every replicate (its episodes are identical)
+    assert record["gap"]["hand"]["hypervolume"]["value"] == pytest.approx(3.0 - 0.625)
+    weights = mo_metrics.simplex_weights(2)
+    assert record["eum"]["value"] == pytest.approx((1.0 + 0.5) / 2)  # w . (c, c) = c for every weight
+    assert record["gap"]["hand"]["eum"]["value"] == pytest.approx(
+        np.mean(np.maximum(weights @ [2.0, 1.0], weights @ [1.0, 2.0])) - 0.75
+    )
+
+
 @pytest.mark.slow
 def test_evaluate_mo_of_a_rule_based_sweep_reproduces_the_shipped_front(tmp_path: Path) -> None:
     from gym4real.core.cli import main
