@@ -353,3 +353,17 @@ def test_evaluate_mo_of_a_rule_based_sweep_reproduces_the_shipped_front(tmp_path
     assert [p["label"] for p in agent["front"]] == [p["label"] for p in shipped["policies"]]
     assert (tmp_path / "pareto-dam-mo-v0.png").is_file()
     assert (tmp_path / "mo_episodes.csv").read_text().count("\n") == 1 + 6 * 13
+
+
+def test_the_env_page_documents_the_objectives_reference_point_and_fronts(load_script: Any) -> None:
+    gen_pages = load_script(Path(__file__).resolve().parents[1] / "docs" / "gen_pages.py")
+    text = "\n".join(gen_pages.mo_section("gym4real/dam-v0"))
+    assert "## Multi-objective evaluation" in text
+    assert "| `shortage` | `deficit` + `starving` |" in text and "| `flooding` | `overflow` |" in text
+    assert "Left out:" in text and "wasted_water" in text
+    shipped = mo_reference.load("gym4real/dam-mo-v0")
+    assert shipped is not None
+    assert ", ".join(f"{v:.6g}" for v in shipped.scale.reference_point) in text
+    for name, front in shipped.record["fronts"].items():
+        assert f"| `{name}` | rule_based | {front['hypervolume']:.4f} | {front['eum']:.4f} |" in text
+    assert gen_pages.mo_section("gym4real/elevator-v0") == []
