@@ -12,6 +12,7 @@ policy), which takes a few minutes.
 # ## The objectives and the reference point
 # The domain declares the objectives, each a sum of reward components over a test episode, maximised;
 # the reference point and the fronts come with the domain (`gym4real info gym4real/wds-mo-v0` shows them).
+import tempfile
 from pathlib import Path
 
 import gymnasium as gym
@@ -35,7 +36,7 @@ print("rule:", evaluation["reference_point_rule"])
 # ## Train one PPO per weight
 # `reward_weights` maps weights over the objectives onto the vector reward's entries; `LinearReward`
 # scalarises it. Training uses the `train` preset's demand profiles, never the test ones.
-runs = Path("runs") / "wds-mo"
+runs = Path(tempfile.mkdtemp()) / "wds-mo"
 policies = []
 for w in ([1.0, 0.0], [0.5, 0.5], [0.0, 1.0]):
     env = gym.make(ENV_ID, preset="train")
@@ -44,10 +45,11 @@ for w in ([1.0, 0.0], [0.5, 0.5], [0.0, 1.0]):
     model = PPO("MlpPolicy", scalar, n_steps=128, batch_size=64, n_epochs=2, seed=0, device="cpu", verbose=0)
     model.learn(total_timesteps=256)
     path = runs / f"w{w[0]:g}-{w[1]:g}" / "model.zip"
+    path.parent.mkdir(parents=True)
     model.save(path)
     policies.append(f"sb3:ppo:{path}")
     scalar.close()
-print(policies)
+print([p.replace(str(runs), "runs") for p in policies])
 
 # %%
 # ## Evaluate the set
@@ -66,7 +68,8 @@ print(result.table())
 # ahead); `score.json`'s `"mo"` section holds the same numbers with the agent's front.
 record = result.score()[ENV_ID]["agents"]["ppo"]
 for point in record["front"]:
-    print(point["label"], np.round(point["mean"], 2), "non-dominated" if point["nondominated"] else "dominated")
+    label = point["label"].replace(str(runs), "runs")
+    print(label, np.round(point["mean"], 2), "non-dominated" if point["nondominated"] else "dominated")
 
 # %%
 # ## The Pareto plot
