@@ -141,12 +141,59 @@ def page(env_id: str, figures: Path | None, gif: tuple[Path, str, int] | None = 
             for n, d in sorted(reg.datasets.items())
             if n.startswith(domain + "/")
         ]
+    lines += mo_section(env_id)
     lines += ["", "## Documentation", "", doc.replace("\n## ", "\n### "), ""]
     if figures is not None:
         lines += _figures("Benchmark figures", figures / env_id.replace("/", "_"))
     lines += _reproduction(env_id)
     lines += ["## Configuration schema", "", "```json", schema, "```", ""]
     return "\n".join(lines)
+
+
+def mo_section(env_id: str) -> list[str]:
+    """The multi-objective evaluation of the env's vector-reward id: objectives, reference point, reference fronts."""
+    from gym4real.core.mo_reference import summary
+    from gym4real.core.mo_spec import mo_ids, mo_spec
+
+    found = [i for i in mo_ids() if registry().multi_objective[i] == env_id]
+    if not found:
+        return []
+    mo_id = found[0]
+    spec, record = mo_spec(mo_id), summary(mo_id) or {}
+    lines = [
+        "",
+        "## Multi-objective evaluation",
+        "",
+        f"`{mo_id}` is scored on these objectives, each a sum over a test episode, maximised "
+        f"(`gym4real evaluate --mo ... --envs {mo_id}`; see "
+        "[Evaluate your agent](../evaluate.md#multi-objective-agents)):",
+        "",
+        "| objective | reward components | what it measures |",
+        "|---|---|---|",
+        *(f"| `{o.name}` | {' + '.join(f'`{c}`' for c in o.components)} | {o.description} |" for o in spec.objectives),
+        "",
+    ]
+    if spec.left_out:
+        lines += [f"Left out: {spec.left_out}.", ""]
+    if "reference_point" not in record:
+        return [*lines, f"No reference shipped: {record.get('reference', 'none')}.", ""]
+    point = ", ".join(f"{v:.6g}" for v in record["reference_point"])
+    top = ", ".join(f"{v:.6g}" for v in record["top"])
+    lines += [
+        f"Reference point ({point}): {record['reference_point_rule']}. Hypervolume and EUM are computed on the "
+        f"normalised scale, the reference point at 0 and random's best test episode ({top}) at 1 per objective; "
+        f"EUM over the {record['weights']['count']} weights of the {record['weights']['rule']}.",
+        "",
+        "| reference front | kind | hypervolume | EUM |",
+        "|---|---|---|---|",
+        *(
+            f"| `{name}` | {f['kind']} | {f['hypervolume']:.4f} | {f['eum']:.4f} |"
+            for name, f in record["reference_fronts"].items()
+        ),
+        "",
+        "Fronts: " + "; ".join(f"`{s.name}`: {s.description}" for s in spec.sweeps) + ".",
+    ]
+    return lines
 
 
 def _figures(title: str, folder: Path, intro: str = "") -> list[str]:

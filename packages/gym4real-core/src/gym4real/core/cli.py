@@ -235,6 +235,13 @@ def _cmd_evaluate(args: argparse.Namespace) -> None:
         name, ref = (name, ref) if sep and ":" not in name else (policy, policy)
         agents[name] = ref
     envs: str | list[str] = "all" if args.all else [e for e in args.envs.split(",") if e]
+    if args.mo:  # the policies form sets (one per NAME), or a NAME is a weight-conditioned factory
+        from gym4real.core.mo_eval import agents_of, evaluate_mo
+
+        found = evaluate_mo(agents_of(args.policies), envs, _seed_list(args.seeds), args.references, args.out)
+        print(found.table())
+        print(f'score.json (its "mo" section), mo_episodes.csv and Pareto plots written to {args.out}/')
+        return
     result = evaluate(agents, envs, seeds=_seed_list(args.seeds), references=args.references, out=args.out)
     print(result.table())
     print(f"score.json, CSVs, figures and report.md written to {args.out}/")
@@ -403,6 +410,13 @@ def _parser() -> argparse.ArgumentParser:
     ev.add_argument("--all", action="store_true", help="every installed environment with a test protocol")
     ev.add_argument("--seeds", help="training seeds, comma-separated (a factory is called as factory(env, seed=S))")
     ev.add_argument("--references", help="folder of reference files to use instead of those the domains ship")
+    ev.add_argument(
+        "--mo",
+        action="store_true",
+        help="multi-objective: on vector-reward ids (--all: every one), the POLICYs named alike form one agent's set "
+        "(a module:attr list gives its items; a module:attr factory(env, weights, seed) is run at each EUM weight); "
+        "hypervolume and EUM against the shipped reference point and fronts",
+    )
     ev.add_argument("--out", default=str(Path("results") / "evaluate"), help="output folder (default results/evaluate)")
 
     dataset = sub.add_parser("dataset", help="offline-RL datasets", description="Offline-RL datasets.")

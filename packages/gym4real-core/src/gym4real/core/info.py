@@ -123,6 +123,11 @@ def summary(env_id: str) -> dict[str, Any]:
             "step_unit": protocol.step_unit,
         }
     record["training_data"] = _training_data(env_id)
+    if env_id in registry().multi_objective:
+        from gym4real.core.mo_reference import summary as mo_summary
+
+        if (evaluation := mo_summary(env_id)) is not None:
+            record["multi_objective"] = evaluation
     try:
         record["interface"] = env_interface(env_id)
     except Exception as exc:  # a summary without the spaces beats no summary: say why they are missing
@@ -176,6 +181,16 @@ def summary_text(record: dict[str, Any], width: int = 100) -> str:
         if bench["objective"]:
             text += f"; objective {' + '.join(bench['objective'])}"
         rows.append(("benchmark", text))
+    if "multi_objective" in record:
+        mo = record["multi_objective"]
+        rows.append(("objectives", "; ".join(f"{o['name']} = {' + '.join(o['components'])}" for o in mo["objectives"])))
+        if "reference_point" in mo:
+            point = ", ".join(f"{v:.6g}" for v in mo["reference_point"])
+            fronts = ", ".join(f"{n} {f['hypervolume']:.3f}" for n, f in mo["reference_fronts"].items())
+            rows.append(("reference point", f"({point}): {mo['reference_point_rule']}"))
+            rows.append(("reference fronts", f"hypervolume (normalised): {fronts}"))
+        else:
+            rows.append(("reference point", mo["reference"]))
     rows.append(("training", _listing(record["trainings"])))
     domain = record["id"].split("/", 1)[-1].split("-", 1)[0]
     rows.append(("datasets", f"{_listing(record['datasets'], 4)} (`gym4real data list {domain}`)"))

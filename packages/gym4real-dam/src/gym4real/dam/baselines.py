@@ -38,17 +38,36 @@ class ExponentialAverageDemand:
     float32, as in the reference (rounding it to float32 moved the reference's returns by up to 4e-4).
     """
 
-    def __init__(self, env: gym.Env[Any, Any]) -> None:
+    def __init__(self, env: gym.Env[Any, Any], scale: float = 1.0) -> None:
         self.env: DamEnv = env.unwrapped  # type: ignore[assignment]
+        self.scale = scale
 
     def __call__(self, obs: Any) -> np.ndarray:
-        """Return the average demand as the release."""
-        return np.array([self.env.exponential_average_demand], dtype=np.float64)
+        """Return the average demand (times ``scale``) as the release."""
+        return np.array([self.scale * self.env.exponential_average_demand], dtype=np.float64)
 
 
 def ead(env: gym.Env[Any, Any]) -> ExponentialAverageDemand:
     """Baseline factory: release the exponential average of past demand."""
     return ExponentialAverageDemand(env)
+
+
+def scaled_ead(env: gym.Env[Any, Any], scale: float) -> ExponentialAverageDemand:
+    """Policy factory: release ``scale`` times the exponential average of past demand (``ead`` is ``scale=1``).
+
+    Below 1 the lake keeps water back (fewer floods averted, more deficit), above 1 it releases ahead of demand.
+    """
+    if not np.isfinite(scale) or scale < 0:
+        raise ValueError(f"scaled_ead: `scale` must be a finite number >= 0, not {scale}")
+    return ExponentialAverageDemand(env, float(scale))
+
+
+def constant_release(env: gym.Env[Any, Any], fraction: float) -> ConstantPolicy:
+    """Policy factory: release ``low + fraction (high - low)`` every day (``mean`` is 0.5, ``max`` is 1)."""
+    if not 0.0 <= fraction <= 1.0:
+        raise ValueError(f"constant_release: `fraction` must be in [0, 1], not {fraction}")
+    space: spaces.Box = env.action_space  # type: ignore[assignment]
+    return ConstantPolicy((space.low + fraction * (space.high - space.low)).astype(space.dtype))
 
 
 def historical(env: gym.Env[Any, Any]) -> Historical:

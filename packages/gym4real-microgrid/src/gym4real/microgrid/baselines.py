@@ -27,3 +27,10 @@ def battery_first(env: gym.Env[Any, Any]) -> ConstantPolicy:
 def fifty_fifty(env: gym.Env[Any, Any]) -> ConstantPolicy:
     """Baseline factory: a = 0.5, half of the net power to the battery."""
     return _constant(0.5)
+
+
+def constant_fraction(env: gym.Env[Any, Any], fraction: float) -> ConstantPolicy:
+    """Policy factory: the same fraction every hour (``only_market`` 0, ``fifty_fifty`` 0.5, ``battery_first`` 1)."""
+    if not 0.0 <= fraction <= 1.0:
+        raise ValueError(f"constant_fraction: `fraction` must be in [0, 1], not {fraction}")
+    return _constant(float(fraction))

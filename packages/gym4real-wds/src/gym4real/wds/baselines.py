@@ -25,9 +25,11 @@ class TankLevelRule:
 
     Args:
         env: The WDS environment; its ``pump_rules`` come from the network file, else from the config.
+        levels: ``(low, high)`` in m for every rule instead of its own levels (the multi-objective sweep's
+            parameter, :func:`tank_level_rule`); None keeps each rule's.
     """
 
-    def __init__(self, env: gym.Env[Any, Any]) -> None:
+    def __init__(self, env: gym.Env[Any, Any], levels: tuple[float, float] | None = None) -> None:
         base = env.unwrapped
         net = base.network  # type: ignore[attr-defined]
         self.rules = base.pump_rules  # type: ignore[attr-defined]
@@ -41,7 +43,10 @@ class TankLevelRule:
                     f"tanks {net.tank_ids}; set `default_rule` in the config"
                 )
                 raise PolicyError(msg)
-            self._pairs.append((net.pump_ids.index(r.pump), net.tank_ids.index(r.tank), r.low, r.high))
+            low, high = (r.low, r.high) if levels is None else levels
+            self._pairs.append((net.pump_ids.index(r.pump), net.tank_ids.index(r.tank), low, high))
+        if levels is not None and not levels[0] < levels[1]:
+            raise PolicyError(f"tank-level rule levels {levels}: low must be below high (m)")
         self.status = list(self.initial)
 
     def reset(self, seed: int | None = None) -> None:
@@ -82,3 +87,20 @@ def p79(env: gym.Env[Any, Any]) -> ConstantPolicy:
 def default(env: gym.Env[Any, Any]) -> TankLevelRule:
     """Baseline factory: the network's tank-level rule (also the expert for imitation learning)."""
     return TankLevelRule(env)
+
+
+def tank_level_rule(env: gym.Env[Any, Any], low: float, high: float) -> TankLevelRule:
+    """Policy factory: the tank-level rule with every pump opening below ``low`` and closing above ``high`` (m).
+
+    ``default`` is ``low=5, high=8``; the multi-objective sweep (:mod:`gym4real.wds.multi_objective`) moves the
+    band to trade demand satisfaction against overflow risk.
+    """
+    return TankLevelRule(env, (float(low), float(high)))
+
+
+def constant_pumps(env: gym.Env[Any, Any], action: int) -> ConstantPolicy:
+    """Policy factory: the same pump combination every hour (``p78`` and ``p79`` are two of the four)."""
+    space = env.action_space
+    if not space.contains(int(action)):  # type: ignore[arg-type]
+        raise PolicyError(f"pump combination {action} is not an action of {space}")
+    return ConstantPolicy(int(action))
