@@ -172,12 +172,16 @@ def figure_caption(png: str, run: dict[str, Any]) -> str:
         raise SystemExit(f"`results.json` beside {png} has no `protocol`: rerun `gym4real bench` with this version")
     what = FIGURE_WHAT.get(png, f"<code>{png}</code>").format(step_unit=run.get("step_unit", "step"))
     where = f"the test protocol ({protocol['description']})" if protocol["test"] else str(protocol["description"])
-    objective = " + ".join(run["objective"]) or "the return"
-    same = " (the same quantity as the return, the training reward)" if run.get("objective_is_return") else ""
+    if not run["objective"]:
+        objective = "the episode return (training reward)"
+    elif run["objective_is_return"]:
+        objective = f"{' + '.join(run['objective'])} per episode, the same quantity as the return (training reward)"
+    else:
+        objective = f"{' + '.join(run['objective'])} per episode (not the return, the training reward)"
     policies = ", ".join(f"<code>{p}</code>" for p in run["ranking"])
     return (
         f"{what}. Policies {policies}, best first by the IQM of the objective; {len(run['episodes'])} episodes each, "
-        f"{where}; objective: {objective} per episode{same}, higher is better."
+        f"{where}. Objective: {objective}; higher is better."
     )
 
 

@@ -16,7 +16,7 @@ from gym4real.core.canvas import CHAR_HEIGHT, captioned
 from gym4real.core.cli import main
 from gym4real.core.errors import Gym4RealError
 from gym4real.core.policies import baseline_names, make_policy
-from gym4real.core.record import GifFrames, record, recording_mode
+from gym4real.core.record import CAPTION_CHARS, GifFrames, record, recording_mode
 from gym4real.core.registry import base_env, registry
 
 IDS = gym4real.list_envs()
@@ -57,7 +57,8 @@ def _expected_last_frame(
                 total += float(info.get("scalar_reward", reward))  # a vector-reward variant's caption is its scalar
             steps += 1
             done = terminated or truncated
-        lines = (f"{env_id}  policy {label or policy}", f"seed {seed}  step {steps}  objective {total:.6g}")
+        progress = f"seed {seed}  step {steps}  objective {total:.6g}".ljust(CAPTION_CHARS)
+        lines = (f"{env_id}  policy {label or policy}", progress)
         return steps, captioned(env.render(), lines)
     finally:
         env.close()

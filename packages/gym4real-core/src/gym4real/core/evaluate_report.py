@@ -21,10 +21,10 @@ if TYPE_CHECKING:
 
     from gym4real.core.evaluate import Evaluation
 
-#: The two panels of ``aggregate_intervals.png``: the key of the estimate, of its bounds, and the title.
+#: The two panels of ``aggregate_intervals.png``: the key of the estimate, of its bounds, the title and the x label.
 PANELS = (
-    ("iqm", "low", "high", "IQM (normalised)"),
-    ("optimality_gap", "optimality_gap_low", "optimality_gap_high", "optimality gap"),
+    ("iqm", "low", "high", "IQM (normalised)", "normalised score (0 = random, 1 = best rule)"),
+    ("optimality_gap", "optimality_gap_low", "optimality_gap_high", "optimality gap", "mean shortfall below 1"),
 )
 #: The colour of your agents (the reference agents take the others of the cycle).
 AGENT_COLOUR = "#d62728"
@@ -68,11 +68,11 @@ def aggregate_figure(aggregates: dict[str, dict[str, Any]], agents: list[str]) -
     mine = [p in agents for p in policies]
     others = iter(f"C{i}" for i in range(10) if f"C{i}" != "C3")
     colours = [AGENT_COLOUR if own else next(others, "grey") for own in mine]
-    fig, axes = plt.subplots(1, 2, figsize=(9, 0.5 * len(policies) + 1.5), sharey=True)
-    for ax, (key, low, high, title) in zip(axes, PANELS, strict=True):
+    fig, axes = plt.subplots(1, 2, figsize=(10, 0.5 * len(policies) + 1.7), sharey=True)
+    for ax, (key, low, high, title, xlabel) in zip(axes, PANELS, strict=True):
         rows = [(aggregates[p][key], aggregates[p][low], aggregates[p][high]) for p in policies]
         draw_intervals(ax, rows, colours, mine)
-        ax.set(title=title, xlabel="normalised score (0 = random, 1 = best rule-based)")
+        ax.set(title=title, xlabel=xlabel)
         ax.grid(axis="x", alpha=0.3)
     names = [f"{p} (your agent)" if own else p for p, own in zip(policies, mine, strict=True)]
     axes[0].set_yticks(range(len(policies)), names)

@@ -65,6 +65,10 @@ class GifFrames:
         first.save(path, save_all=True, append_images=rest, duration=duration, loop=0, optimize=True)
 
 
+#: Characters the caption's changing line (seed, step, objective) is padded to, so that every frame of a
+#: video keeps the width of the first: a frame narrower than its caption is widened to it.
+CAPTION_CHARS = 48
+
 #: Why an MP4 cannot be written, and the fix.
 MP4_NEEDS_MOVIEPY = 'writing an MP4 needs MoviePy: `pip install "gym4real-core[video]"`'
 
@@ -196,7 +200,8 @@ def _record_episode(
     def on_step(step: int, total: float) -> None:
         nonlocal writer
         rendered = env.render()
-        lines = (f"{names[0]}  policy {names[1]}", f"seed {seed}  step {step}  objective {total:.6g}")
+        progress = f"seed {seed}  step {step}  objective {total:.6g}".ljust(CAPTION_CHARS)
+        lines = (f"{names[0]}  policy {names[1]}", progress)
         for frame in rendered if isinstance(rendered, list) else [rendered]:
             if not isinstance(frame, np.ndarray):
                 raise Gym4RealError(f"`{names[0]}` rendered {type(frame).__name__}, not an rgb_array frame")
