@@ -28,7 +28,7 @@ print(result.table())
 # standard deviation, and the mean return (training reward), which here ranks the policies otherwise:
 # the dam's reward adds penalties that are not the paper's objective.
 summary = result.summary()
-print(summary[["objective_iqm", "objective_low", "objective_high", "objective_mean", "return_mean"]])
+print(summary[["objective_iqm", "objective_low", "objective_high", "return_mean"]].round(0).to_string())
 
 # %%
 # ## Read the figures

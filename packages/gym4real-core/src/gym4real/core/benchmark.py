@@ -253,7 +253,7 @@ class BenchmarkResult:
                 for name, finals in self.final_info.items()
             },
         }
-        written[2].write_text(json.dumps(record, indent=1))
+        written[2].write_text(json.dumps(record, indent=1, default=str))
         written += plots.save_figures(self, out)
         spec = registry().benchmarks.get(base_env(self.env_id))
         if spec is not None and spec.figures:
