@@ -27,11 +27,17 @@ PANELS = (
     ("optimality_gap", "optimality_gap_low", "optimality_gap_high", "optimality gap", "mean shortfall below 1"),
 )
 #: The colour of your agents (the reference agents take the others of the cycle).
-AGENT_COLOUR = "#d62728"
+AGENT_COLOUR = "#d62728"  # C3 of matplotlib's default cycle, which the other policies skip
 
 
 def _policies(evaluation: Evaluation) -> list[str]:
     return [p for p in [*evaluation.agents, *evaluation.references()] if evaluation.runs(p)]
+
+
+def colours(policies: list[str], agents: list[str]) -> dict[str, str]:
+    """Policy -> its colour in both figures: your agents :data:`AGENT_COLOUR`, the others the rest of the cycle."""
+    others = iter(f"C{i}" for i in range(10) if f"C{i}" != "C3")
+    return {p: AGENT_COLOUR if p in agents else next(others, "grey") for p in policies}
 
 
 def draw_intervals(ax: Axes, rows: list[tuple[float, float, float]], colours: list[str], mine: list[bool]) -> None:
@@ -66,12 +72,11 @@ def aggregate_figure(aggregates: dict[str, dict[str, Any]], agents: list[str]) -
 
     policies = list(aggregates)
     mine = [p in agents for p in policies]
-    others = iter(f"C{i}" for i in range(10) if f"C{i}" != "C3")
-    colours = [AGENT_COLOUR if own else next(others, "grey") for own in mine]
+    drawn = list(colours(policies, agents).values())
     fig, axes = plt.subplots(1, 2, figsize=(10, 0.5 * len(policies) + 1.7), sharey=True)
     for ax, (key, low, high, title, xlabel) in zip(axes, PANELS, strict=True):
         rows = [(aggregates[p][key], aggregates[p][low], aggregates[p][high]) for p in policies]
-        draw_intervals(ax, rows, colours, mine)
+        draw_intervals(ax, rows, drawn, mine)
         ax.set(title=title, xlabel=xlabel)
         ax.grid(axis="x", alpha=0.3)
     names = [f"{p} (your agent)" if own else p for p, own in zip(policies, mine, strict=True)]
@@ -98,9 +103,9 @@ def figures(evaluation: Evaluation, out: Path) -> list[Path]:
     fig.savefig(written[0], dpi=100)
     plt.close(fig)
     fig, ax = plt.subplots(figsize=(7, 4))
-    others = iter(f"C{i}" for i in range(10) if f"C{i}" != "C3")
+    palette = colours(policies, evaluation.agents)
     for policy in policies:
-        colour = AGENT_COLOUR if policy in evaluation.agents else next(others, "grey")
+        colour = palette[policy]
         profile, low, high = suite_score.suite_profile(evaluation.runs(policy), suite_score.THRESHOLDS)
         ax.plot(suite_score.THRESHOLDS, profile, color=colour, label=policy)
         ax.fill_between(suite_score.THRESHOLDS, low, high, color=colour, alpha=0.2)
