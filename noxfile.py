@@ -155,8 +155,8 @@ def docs(session: nox.Session) -> None:
     """The docs site, checked in a real browser.
 
     One generated page per env with an episode GIF of its best rule-based baseline (recorded here into the
-    ignored docs/envs/) and its `gym4real bench` figures (short benchmarks), plus the figures of `gym4real
-    reproduce` found in results/, and the home page's gallery, verdicts and citation (docs/snippets/);
+    ignored docs/envs/) and its `gym4real bench` figures (on its test protocol, captioned), plus the figures of
+    `gym4real reproduce` found in results/, and the home page's gallery, verdicts and citation (docs/snippets/);
     `mkdocs build --strict`, which executes the tutorials of examples/tutorials/ (a failing one fails it)
     and builds the API reference; then every page opened in headless Chromium (the system's: `apt-get
     install -y chromium`, or GYM4REAL_CHROMIUM=<binary>), a screenshot of each saved in
@@ -180,7 +180,7 @@ def docs(session: nox.Session) -> None:
     )
     for env_id in str(ids).split():
         out = figures / env_id.replace("/", "_")
-        session.run("gym4real", "bench", env_id, "--episodes", "3", "--out", str(out), "--quiet", env=env)
+        session.run("gym4real", "bench", env_id, "--out", str(out), "--quiet", env=env)
     session.run("python", "docs/gen_pages.py", "--figures", str(figures), "--gifs", env=env)
     quiet = {"NO_MKDOCS_2_WARNING": "1", "DISABLE_MKDOCS_2_WARNING": "true"}  # the theme's and a plugin's notice
     session.run("mkdocs", "build", "--strict", env=env | quiet)

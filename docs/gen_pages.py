@@ -3,11 +3,13 @@
 Each page opens, as Farama's environment pages do, with an episode of the env (an animated GIF, with
 ``--gifs``) beside a table of its spaces, reward terms and flags; then its description, presets,
 datasets, baselines, protocol, docstring and the JSON schema of its configuration; when ``--figures DIR``
-names a folder of ``gym4real bench`` results (``DIR/<env>/...png``), the benchmark figures; and the env's
-verdicts on the paper's claims from the committed results page (``docs/results/index.md``).
+names a folder of ``gym4real bench`` results (``DIR/<env>/...png``, run on the test protocol), the benchmark
+figures, each captioned with what it shows (the policies, the episodes, the objective) from the run's
+``results.json``; and the env's verdicts on the paper's claims from the committed results page
+(``docs/results/index.md``).
 
 The GIF shows the env's best rule-based baseline: the protocol's baseline (other than ``random``) with
-the best mean objective in ``--figures`` results, else its first. It is recorded here (``gym4real
+the best objective IQM (the score) in ``--figures`` results, else its first. It is recorded here (``gym4real
 record``, no MP4) into the ignored ``docs/envs/gifs/``.
 
 The Environments page lists every id, the multi-objective ones with their reward components. The home
@@ -27,6 +29,7 @@ import re
 import shutil
 import tomllib
 from pathlib import Path
+from typing import Any
 
 import gymnasium as gym
 import pandas as pd
@@ -41,7 +44,7 @@ GIF_FRAMES = 60  # frames per GIF (evenly spaced steps, and the last)
 
 
 def best_baseline(env_id: str, figures: Path | None) -> str:
-    """The protocol's rule-based baseline with the best mean objective in the bench results, else its first."""
+    """The protocol's rule-based baseline with the best objective IQM in the bench results, else its first."""
     reg = registry()
     bench = reg.benchmarks.get(env_id)
     names = list(bench.policies) if bench else sorted(reg.baselines.get(env_id, {}))
@@ -49,8 +52,9 @@ def best_baseline(env_id: str, figures: Path | None) -> str:
     summary = figures / env_id.replace("/", "_") / "summary.csv" if figures else None
     if summary is not None and summary.is_file():
         table = pd.read_csv(summary, index_col="policy")
-        score = table["objective_mean"] if "objective_mean" in table else table["mean"]
-        ranked = [n for n in score.sort_values(ascending=False).index if n in candidates]
+        ranked = [
+            n for n in table["objective_iqm"].sort_values(ascending=False, kind="stable").index if n in candidates
+        ]
         if ranked:
             return str(ranked[0])
     return candidates[0]
@@ -194,19 +198,59 @@ def mo_section(env_id: str) -> list[str]:
         "Fronts: " + "; ".join(f"`{s.name}`: {s.description}" for s in spec.sweeps) + ".",
     ]
     return lines
+#: What each figure of ``gym4real bench`` shows, before the run it comes from.
+FIGURE_WHAT = {
+    "cumulative_reward.png": "Mean cumulative objective per {step_unit}, with its 95 % band",
+    "returns_boxplot.png": "Distribution of the per-episode objective",
+}
+
+
+def figure_caption(png: str, run: dict[str, Any]) -> str:
+    """The caption of a bench figure: what it shows, the policies, the episodes and the objective.
+
+    Args:
+        png: The figure's file name.
+        run: The bench run's ``results.json``.
+    """
+    protocol = run.get("protocol")
+    if not isinstance(protocol, dict):
+        raise SystemExit(f"`results.json` beside {png} has no `protocol`: rerun `gym4real bench` with this version")
+    what = FIGURE_WHAT.get(png, f"<code>{png}</code>").format(step_unit=run.get("step_unit", "step"))
+    where = f"the test protocol ({protocol['description']})" if protocol["test"] else str(protocol["description"])
+    if not run["objective"]:
+        objective = "the episode return (training reward)"
+    elif run["objective_is_return"]:
+        objective = f"{' + '.join(run['objective'])} per episode, the same quantity as the return (training reward)"
+    else:
+        objective = f"{' + '.join(run['objective'])} per episode (not the return, the training reward)"
+    policies = ", ".join(f"<code>{p}</code>" for p in run["ranking"])
+    return (
+        f"{what}. Policies {policies}, best first by the IQM of the objective; {len(run['episodes'])} episodes each, "
+        f"{where}. Objective: {objective}; higher is better."
+    )
 
 
 def _figures(title: str, folder: Path, intro: str = "") -> list[str]:
-    """The PNGs of a results folder, copied next to the pages, under a heading (nothing without PNGs)."""
+    """The PNGs of a bench results folder, copied next to the pages and captioned, under a heading.
+
+    Nothing without PNGs.
+    """
     pngs = sorted(folder.glob("*.png")) if folder.is_dir() else []
     if not pngs:
         return []
+    run = json.loads((folder / "results.json").read_text())
     lines = [f"## {title}", ""] + ([intro, ""] if intro else [])
     target = DOCS / "envs" / "figures" / folder.name
     target.mkdir(parents=True, exist_ok=True)
     for png in pngs:
         shutil.copy(png, target / png.name)
-        lines += [f"![{png.stem}](figures/{folder.name}/{png.name})", ""]
+        lines += [
+            '<figure markdown="span">',
+            f"  ![{png.stem}](figures/{folder.name}/{png.name})",
+            f"  <figcaption>{figure_caption(png.name, run)}</figcaption>",
+            "</figure>",
+            "",
+        ]
     return lines
 
 

@@ -5,7 +5,8 @@ A2C agent per seed on the trading and the water-distribution environments (their
 saves each model, and runs
 ``gym4real.evaluate`` on the two test protocols: per environment the agent's IQM and its probability of
 improvement over the reference agents and the best rule-based baseline, and its suite score (0 = random,
-1 = the best rule-based baseline). The docs tutorial ``docs/evaluate.md`` walks through it.
+1 = the best rule-based baseline; trading, whose two anchors its test days cannot tell apart, has no such
+scale and stays out of it). The docs tutorial ``docs/evaluate.md`` walks through it.
 """
 
 from __future__ import annotations

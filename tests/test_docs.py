@@ -196,3 +196,24 @@ def test_browser_check_reports_a_console_error_a_broken_image_and_an_empty_page(
     assert not [p for p in problems if p.startswith("envs/")]
     shots = sorted(p.name for p in (tmp_path / "shots").glob("*.png"))
     assert shots == ["a_index.png", "b_index.png", "env.png", "envs_e_index.png", "home.png", "index.png"]
+
+
+def test_env_page_figures_are_captioned_with_policies_episodes_and_objective(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, load_script: Callable[[Path], ModuleType]
+) -> None:
+    gen_pages = load_script(ROOT / "docs" / "gen_pages.py")
+    monkeypatch.setattr(gen_pages, "DOCS", tmp_path / "docs")  # the copies of the figures go there
+    folder = tmp_path / "results" / "gym4real_dam-v0"
+    gym4real.benchmark("gym4real/dam-v0", ["ead", "max"], episodes="test", out=folder)
+    lines = gen_pages._figures("Benchmark figures", folder)
+    captions = [line for line in lines if "<figcaption>" in line]
+    assert len(captions) == len(list(folder.glob("*.png"))) == 2
+    for caption in captions:
+        assert "Policies <code>max</code>, <code>ead</code>, best first by the IQM of the objective" in caption
+        assert "13 episodes each, the test protocol (the 13 test years" in caption
+        assert "Objective: deficit + overflow + starving per episode (not the return, the training reward)" in caption
+    assert "Mean cumulative objective per day" in captions[0] and "per-episode objective" in captions[1]
+    assert all(
+        (tmp_path / "docs" / "envs" / "figures" / folder.name / png.name).is_file() for png in folder.glob("*.png")
+    )
+    assert gen_pages.best_baseline("gym4real/dam-v0", tmp_path / "results") == "max"  # by the objective's IQM

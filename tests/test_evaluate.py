@@ -178,7 +178,9 @@ def test_the_tutorial_trains_a2c_on_two_envs_and_reads_its_score(
     tutorial = load_script(Path(__file__).resolve().parents[1] / "examples" / "evaluate_a2c.py")
     score = tutorial.main(["--steps", "300", "--seeds", "0", "--out", str(tmp_path)])
     aggregate = score["aggregate"]
-    assert aggregate["envs"] == list(tutorial.TRAINING) and aggregate["runs"] == 2
+    # trading's anchors are not told apart (its scale is noise): the suite score is wds's alone
+    assert score["envs"]["gym4real/trading-v0"]["scale"]["separated"] is False
+    assert aggregate["envs"] == ["gym4real/wds-v0"] and aggregate["runs"] == 1
     assert aggregate["low"] <= aggregate["iqm"] <= aggregate["high"] and np.isfinite(aggregate["optimality_gap"])
     for env_id in tutorial.TRAINING:
         assert score["envs"][env_id]["seeds"] == 1 and (tmp_path / "models" / env_id.split("/")[1] / "seed0").is_dir()
@@ -202,7 +204,10 @@ def test_an_env_without_reference_runs_is_compared_with_its_baselines_run_now(tm
     evaluation = gym4real.evaluate({"mine": "flat"}, ["gym4real/trading-v0"], references=tmp_path)  # none there
     assert f"none in `{tmp_path}`: compared with the baselines run now" in evaluation.table()
     assert evaluation.references() == []
-    assert evaluation.score()["envs"]["gym4real/trading-v0"]["normalized_iqm"] is not None
+    entry = evaluation.score()["envs"]["gym4real/trading-v0"]
+    # the baselines run now measure the scale too: buy_and_hold does not beat random beyond the noise
+    assert entry["scale"]["one"] == "buy_and_hold" and entry["scale"]["separated"] is False
+    assert entry["normalized_iqm"] is None
 
 
 def test_an_unknown_id_is_named_with_the_nearest_ones(capsys: pytest.CaptureFixture[str]) -> None:
@@ -211,3 +216,92 @@ def test_an_unknown_id_is_named_with_the_nearest_ones(capsys: pytest.CaptureFixt
         err = capsys.readouterr().err
         assert "unknown environment `gym4real/elevator-v9`. Did you mean `gym4real/elevator-v0`" in err, err
         assert "evaluation protocol" not in err
+
+
+def test_a_deterministic_agent_over_three_seeds_gets_a_suite_interval_of_nonzero_width(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # the same rule for every seed: the seeds do not differ, only the test episodes do (issue 32)
+    (tmp_path / "steady_agents.py").write_text(
+        textwrap.dedent(
+            """
+            from gym4real.core.policies import make_policy
+
+            def steady(env, seed):
+                env_id = env.spec.id if env.spec is not None else ""
+                return make_policy(env_id, "mean" if "dam" in env_id else "p79", env)
+            """
+        )
+    )
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    envs = "gym4real/dam-v0,gym4real/wds-v0"
+    out = tmp_path / "out"
+    assert main(["evaluate", "mine=steady_agents:steady", "--envs", envs, "--seeds", "0,1,2", "--out", str(out)]) == 0
+    score = json.loads((out / "score.json").read_text())
+    episodes = pd.read_csv(out / "episodes.csv")
+    mine = episodes[episodes["policy"] == "mine"]
+    for env_id in envs.split(","):
+        entry = score["envs"][env_id]
+        assert entry["seeds"] == 3 and entry["scale"]["separated"] is True
+        low, high = entry["scale"]["difference"]
+        assert 0 < low <= high
+        per_seed = mine[mine["env_id"] == env_id].pivot(index="seed", columns="episode", values="objective")
+        assert (per_seed.nunique(axis=0) == 1).all()  # deterministic: every seed scores alike on each episode
+    aggregate = score["aggregate"]
+    assert aggregate["runs"] == 6 and aggregate["high"] - aggregate["low"] > 0.01
+    assert aggregate["low"] <= aggregate["iqm"] <= aggregate["high"]
+
+
+def test_trading_whose_anchors_are_not_separated_stays_out_of_the_suite_score() -> None:
+    agent = {"gym4real/trading-v0": "flat", ENV: "longest_first"}
+    evaluation = gym4real.evaluate({"mine": agent}, ["gym4real/trading-v0", ENV])  # the shipped reference runs
+    score = evaluation.score()
+    trading = "gym4real/trading-v0"
+    entry = score["envs"][trading]
+    scale = entry["scale"]
+    assert scale["zero"] == "random" and scale["one"] == "buy_and_hold" and scale["separated"] is False
+    low, high = scale["difference"]
+    assert low < 0 < high  # buy_and_hold - random: within the noise of the test days
+    reference = load_reference(trading)
+    assert reference is not None
+    estimate = sps.trim_mean(reference.scores["buy_and_hold"], 0.25, axis=None) - sps.trim_mean(
+        reference.scores["random"], 0.25, axis=None
+    )
+    assert low < estimate < high and f"{estimate:,.4g}" in score["scales"][trading]["note"]
+    assert entry["normalized_iqm"] is None and score["scales"][trading]["separated"] is False
+    assert score["aggregate"]["envs"] == [ENV]
+    assert all(trading not in agg["envs"] for agg in score["references"].values())
+    assert "no normalised scale: no rule-based baseline beats `random` with a 95 % interval" in evaluation.table()
+
+
+def test_the_aggregate_figure_draws_a_point_interval_as_the_agents_marker_inside_the_axes() -> None:
+    from matplotlib.lines import Line2D
+
+    from gym4real.core.evaluate_report import AGENT_COLOUR, aggregate_figure
+
+    point = {"iqm": -0.286, "low": -0.286, "high": -0.286}  # a zero-width interval, below every other bound
+    point.update(optimality_gap=1.286, optimality_gap_low=1.286, optimality_gap_high=1.286)
+    wide = {"iqm": 0.7, "low": 0.629, "high": 0.7, "optimality_gap": 0.3, "optimality_gap_low": 0.3}
+    wide["optimality_gap_high"] = 0.371
+    fig = aggregate_figure({"mine": point, "a2c": wide}, ["mine"])
+    fig.canvas.draw()
+    for ax, key in zip(fig.axes, ("iqm", "optimality_gap"), strict=True):
+        markers = [
+            line for line in ax.get_lines() if isinstance(line, Line2D) and line.get_marker() not in ("None", None, "")
+        ]
+        mine = [m for m in markers if m.get_label() == "your agent"]
+        assert len(mine) == 1 and mine[0].get_color() == AGENT_COLOUR
+        x, y = mine[0].get_xdata()[0], mine[0].get_ydata()[0]
+        assert x == point[key]
+        left, right = ax.get_xlim()
+        assert min(left, right) < x < max(left, right)  # inside, not on the axis line
+        shown = ax.transData.transform((x, y))
+        box = ax.get_window_extent()
+        assert box.x0 < shown[0] < box.x1 and box.y0 < shown[1] < box.y1
+        bounds = ("low", "high") if key == "iqm" else ("optimality_gap_low", "optimality_gap_high")
+        every = [row[k] for row in (point, wide) for k in (key, *bounds)]
+        assert all(min(left, right) < v < max(left, right) for v in every)  # axes that include every point
+    labels = [t.get_text() for t in fig.axes[0].get_yticklabels()]
+    assert labels == ["mine (your agent)", "a2c"]
+    assert fig.axes[0].get_yticklabels()[0].get_fontweight() == "bold"

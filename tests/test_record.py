@@ -1,4 +1,4 @@
-"""``gym4real record``: an MP4 and a GIF per episode of a policy, captioned with its step and return."""
+"""``gym4real record``: an MP4 and a GIF per episode of a policy, captioned with its step and objective so far."""
 
 from __future__ import annotations
 
@@ -16,7 +16,8 @@ from gym4real.core.canvas import CHAR_HEIGHT, captioned
 from gym4real.core.cli import main
 from gym4real.core.errors import Gym4RealError
 from gym4real.core.policies import baseline_names, make_policy
-from gym4real.core.record import GifFrames, record, recording_mode
+from gym4real.core.record import CAPTION_CHARS, GifFrames, record, recording_mode
+from gym4real.core.registry import base_env, registry
 
 IDS = gym4real.list_envs()
 
@@ -33,7 +34,13 @@ def _frames(path: Path) -> list[np.ndarray]:
 def _expected_last_frame(
     env_id: str, policy: str, seed: int, max_steps: int, label: str | None = None
 ) -> tuple[int, np.ndarray]:
-    """The last frame of the episode, captioned (with ``label``, default ``policy``) from a run of our own."""
+    """The last frame of the episode, captioned (with ``label``, default ``policy``) from a run of our own.
+
+    The caption's score is the protocol's objective: the sum of its reward components (the reward where the
+    protocol names none; a vector-reward variant's scalar).
+    """
+    spec = registry().benchmarks.get(base_env(env_id))
+    objective = spec.objective if spec is not None else ()
     env = gym.make(env_id, render_mode="rgb_array", max_episode_steps=max_steps)
     try:
         act = make_policy(env_id, policy, env)
@@ -44,10 +51,14 @@ def _expected_last_frame(
         total, steps, done = 0.0, 0, False
         while not done:
             obs, reward, terminated, truncated, info = env.step(act(obs))
-            total += float(info.get("scalar_reward", reward))  # a vector-reward variant's caption is its scalar
+            if objective:
+                total += sum(float(info["reward_components"][c]) for c in objective)
+            else:
+                total += float(info.get("scalar_reward", reward))  # a vector-reward variant's caption is its scalar
             steps += 1
             done = terminated or truncated
-        lines = (f"{env_id}  policy {label or policy}", f"seed {seed}  step {steps}  return {total:.6g}")
+        progress = f"seed {seed}  step {steps}  objective {total:.6g}".ljust(CAPTION_CHARS)
+        lines = (f"{env_id}  policy {label or policy}", progress)
         return steps, captioned(env.render(), lines)
     finally:
         env.close()
@@ -75,7 +86,7 @@ def test_record_writes_a_captioned_mp4_and_gif_per_episode(env_id: str, tmp_path
             # identical consecutive frames, such as the arm standing still)
             assert len(video) > steps + 1 and steps + 1 <= len(gif) <= min(len(video), 100)
         assert gif[-1].shape == video[-1].shape == want.shape
-        band = 6 + 2 * (CHAR_HEIGHT + 2)  # the caption: env, policy, seed, step and return
+        band = 6 + 2 * (CHAR_HEIGHT + 2)  # the caption: env, policy, seed, step and objective
         assert np.abs(gif[-1][:band].astype(int) - want[:band]).max() <= 8
         assert np.abs(video[-1].astype(float) - want).mean() < 12
 

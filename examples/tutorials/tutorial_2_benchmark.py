@@ -1,8 +1,10 @@
 """# Benchmark the baselines and read the figures
 
 `gym4real.benchmark` runs policies on an environment's evaluation protocol (the paper's test episodes)
-or on seeded episodes, and returns their returns, reward components and a summary table; with `out=`
-it also writes CSV/JSON and two figures. `gym4real bench ID` on the command line does the same.
+or on seeded episodes, and returns their scores, returns, reward components and a summary table; with
+`out=` it also writes CSV/JSON and two figures. The score is the protocol's objective (higher is better),
+the number `gym4real evaluate` and the results page rank by; the return (the training reward) is shown
+beside it only where it differs. `gym4real bench ID` on the command line does the same.
 """
 
 # %%
@@ -21,16 +23,18 @@ result = gym4real.benchmark("gym4real/dam-v0", ["ead", "max", "random"], episode
 print(result.table())
 
 # %%
-# The summary is a pandas DataFrame, one row per policy: mean, std, interquartile mean (IQM) and a
-# 95 % bootstrap interval of the mean return, and the mean objective.
+# The table opens with the protocol it ran. The summary is a pandas DataFrame, one row per policy, best
+# first: the interquartile mean (IQM) of the objective with its 95 % bootstrap interval, its mean and
+# standard deviation, and the mean return (training reward), which here ranks the policies otherwise:
+# the dam's reward adds penalties that are not the paper's objective.
 summary = result.summary()
-print(summary[["mean", "iqm", "ci95_low", "ci95_high", "objective_mean"]])
+print(summary[["objective_iqm", "objective_low", "objective_high", "return_mean"]].round(0).to_string())
 
 # %%
 # ## Read the figures
-# `cumulative_reward.png`: the mean cumulative reward over the year, with a 95 % band across the test
-# years: where a policy loses reward shows as a steeper descent. `returns_boxplot.png`: the spread of the
-# returns over the test years.
+# `cumulative_reward.png`: the mean cumulative objective over the year, with a 95 % band across the test
+# years: where a policy loses shows as a steeper descent. `returns_boxplot.png`: the spread of the
+# per-year objective. Both draw the policies best first.
 for name in ("cumulative_reward.png", "returns_boxplot.png"):
     plt.figure(figsize=(9, 5))
     plt.imshow(plt.imread(out / name))

@@ -35,7 +35,8 @@ result = gym4real.benchmark("gym4real/dam-v0", ["ead", "max", ppo], episodes="te
 print(result.table())
 
 # %%
-# The `objective_mean` column is the paper's score (deficit + overflow + starving, higher is better);
-# the return adds the penalties on wasted water and on releases outside the feasible range. 10k steps
-# are 28 years of daily decisions, a twentieth of the paper's budget: the
+# The table ranks by the paper's score, the objective (deficit + overflow + starving, higher is better;
+# `objective_iqm` with its interval); `return_mean` is the training reward, which adds the penalties on
+# wasted water and on releases outside the feasible range. 10k steps are 28 years of daily decisions, a
+# twentieth of the paper's budget: the
 # [reproduced results](../results/index.md) test PPO at that budget over five seeds.

@@ -21,7 +21,7 @@ def test_protocol_sizes() -> None:
 def test_core_benchmark_runs(tmp_path: Path) -> None:
     result = benchmark("gym4real/robofeeder-picking-v0", ["fixed", "oracle"], episodes=3, out=tmp_path)
     summary = result.summary()
-    assert summary.loc["oracle", "mean"] > summary.loc["fixed", "mean"]
+    assert summary.loc["oracle", "objective_mean"] > summary.loc["fixed", "objective_mean"]
     assert (tmp_path / "cumulative_reward.png").is_file() and (tmp_path / "returns_boxplot.png").is_file()
 
 

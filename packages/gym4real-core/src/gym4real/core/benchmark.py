@@ -3,8 +3,15 @@
 ``benchmark()`` returns a :class:`BenchmarkResult` whose ``returns`` maps each policy to its episode
 returns and ``components`` maps policy -> reward component -> per-episode sums. A policy is keyed as it
 was given (a model file as ``kind:path``); tables and figures show its short label (``labels``).
+
+**One score.** The score of a policy is the protocol's objective (the sum of its reward components per
+episode; the return where the protocol names none), higher is better, summarised by its interquartile mean
+(IQM) with a 95 % bootstrap interval: what ``gym4real evaluate``, the suite score and the results page
+rank by. The table and the figures rank and plot the objective; the return (the training reward) is a
+column of its own, labelled so, and only where it differs from the objective.
+
 ``save()`` writes the per-episode CSV, a JSON record, a summary table and the paper's two figures (mean
-cumulative reward with a 95 % band, boxplot of returns).
+cumulative objective with a 95 % band, boxplot of the episode objective).
 """
 
 from __future__ import annotations
@@ -81,6 +88,9 @@ class BenchmarkResult:
     objective: tuple[str, ...] = ()
     step_unit: str = "step"
     objectives: tuple[str, ...] = ()  # a vector-reward id's reward entries, in order: one table column each
+    description: str = ""  # the episodes run: the test protocol's description, or "N seeded episodes"
+    test_protocol: bool = False  # whether the episodes are the env's test protocol
+    env_kwargs: dict[str, Any] = field(default_factory=dict)  # the make() arguments of the episodes
 
     @property
     def labels(self) -> dict[str, str]:
@@ -94,45 +104,100 @@ class BenchmarkResult:
         comps = self.components[policy]
         return [float(sum(comps[c][i] for c in self.objective)) for i in range(len(self.returns[policy]))]
 
+    def objective_steps(self, policy: str) -> list[np.ndarray]:
+        """Per episode, the objective of each step (the reward when no objective is set)."""
+        return self.objective_rewards[policy] if self.objective else self.rewards[policy]
+
+    @property
+    def objective_name(self) -> str:
+        """What the objective sums, for labels: ``deficit + overflow + starving``, or ``return``."""
+        return " + ".join(self.objective) if self.objective else "return"
+
+    @property
+    def objective_is_return(self) -> bool:
+        """Whether the objective and the return (training reward) are the same quantity in every episode."""
+        return all(
+            np.allclose(self.objective_values(name), rets, rtol=stats.RTOL, atol=0.0)
+            for name, rets in self.returns.items()
+        )
+
+    def score(self, policy: str) -> tuple[float, float, float]:
+        """The policy's score: IQM of its per-episode objective and its 95 % bootstrap interval (episodes resampled).
+
+        The statistic and interval of ``gym4real evaluate`` and the results page for a policy with one run.
+        """
+        return stats.iqm_ci(np.asarray(self.objective_values(policy), dtype=float)[None], trained=False)
+
+    def ranking(self) -> list[str]:
+        """The policies, best first by the IQM of their objective, as :meth:`score` (ties in the order given)."""
+        scores = {name: stats.iqm(self.objective_values(name)) for name in self.returns}
+        return sorted(scores, key=lambda name: -scores[name])
+
+    def protocol_lines(self) -> list[str]:
+        """What was run, for the head of the table: the episodes, their seeds, ``make()`` arguments, objective."""
+        seeds = [e.get("seed") for e in self.episodes]
+        kwargs = ", ".join(f"{k}={v}" for k, v in self.env_kwargs.items()) or "none"
+        where = "test protocol" if self.test_protocol else "not the test protocol"
+        objective = (
+            f"objective (the score): {self.objective_name} per episode, higher is better"
+            if not self.objective_is_return
+            else "objective (the score): the episode return (training reward) itself, higher is better"
+        )
+        return [
+            f"{self.env_id}, {where}: {self.description}",
+            f"  {len(self.episodes)} episode(s) per policy, reset seeds {_seeds_text(seeds)}; "
+            f"make() arguments: {kwargs}",
+            f"  {objective}; policies ranked by its IQM (as `gym4real evaluate` and the results page rank)",
+        ]
+
     def summary(self) -> pd.DataFrame:
-        """One row per policy (by label): mean, std, interquartile mean and 95 % bootstrap CI of the return."""
+        """One row per policy (by label), best first: the objective's IQM with its 95 % interval, mean and std.
+
+        The return (training reward) has its own columns (``return_mean``, ``return_std``) where it differs
+        from the objective; then each reward component's and final ``info`` value's mean.
+        """
         rows = []
         labels = self.labels
-        for name, rets in self.returns.items():
-            lo, hi = stats.bootstrap_ci(rets)
+        separate_return = not self.objective_is_return
+        for rank, name in enumerate(self.ranking(), start=1):
+            values = self.objective_values(name)
+            iqm, low, high = self.score(name)
             row: dict[str, Any] = {
                 "policy": labels[name],
-                "episodes": len(rets),
-                "mean": float(np.mean(rets)),
-                "std": float(np.std(rets)),
-                "iqm": stats.iqm(rets),
-                "ci95_low": lo,
-                "ci95_high": hi,
+                "rank": rank,
+                "episodes": len(values),
+                "objective_iqm": iqm,
+                "objective_low": low,
+                "objective_high": high,
+                "objective_mean": float(np.mean(values)),
+                "objective_std": float(np.std(values)),
             }
-            if self.objective:
-                row["objective_mean"] = float(np.mean(self.objective_values(name)))
+            if separate_return:
+                row["return_mean"] = float(np.mean(self.returns[name]))
+                row["return_std"] = float(np.std(self.returns[name]))
             for comp, vals in self.components[name].items():
                 row[f"{comp}_mean"] = float(np.mean(vals))
             for key, vals in self.final_info.get(name, {}).items():
-                row[f"final_{key}_mean"] = float(np.mean(vals))
+                row[f"final_{key}_mean"] = float(np.nanmean(vals)) if np.isfinite(vals).any() else np.nan
             rows.append(row)
         return pd.DataFrame(rows).set_index("policy")
 
     def table(self) -> str:
-        """The summary as a fixed-width text table, one number format throughout, with notes on its columns."""
-        cols = ["episodes", "mean", "std", "iqm", "ci95_low", "ci95_high"]
-        if self.objective:
-            cols.append("objective_mean")
+        """The protocol run, then the summary as a fixed-width text table (best first), with notes on its columns."""
+        cols = ["episodes", "objective_iqm", "objective_low", "objective_high", "objective_mean", "objective_std"]
+        separate_return = not self.objective_is_return
+        if separate_return:
+            cols.append("return_mean")
         cols += [f"{o}_mean" for o in self.objectives]
         frame = self.summary()[cols]
         numbers = frame.drop(columns="episodes").to_numpy(dtype=float).ravel().tolist()
         notes = [
-            "mean, std, iqm (interquartile mean) of the episode return; ci95_low/high: 95 % bootstrap CI of the mean"
+            f"objective_iqm: interquartile mean of the per-episode objective ({self.objective_name}), the score; "
+            "objective_low/high: its 95 % bootstrap interval (episodes resampled); objective_mean/std: mean and "
+            "standard deviation over the episodes"
         ]
-        if self.objective:
-            notes.append(
-                f"objective_mean: mean per-episode sum of {' + '.join(self.objective)} (the paper's objective)"
-            )
+        if separate_return:
+            notes.append("return_mean: mean episode return (training reward), not the score")
         if self.objectives:
             names = ", ".join(f"{o}_mean" for o in self.objectives)
             notes.append(f"{names}: mean per-episode sum of each entry of the vector reward")
@@ -141,7 +206,8 @@ class BenchmarkResult:
             notes.append(
                 f"warning: {fewest} episode(s) per policy: bootstrap CIs and the IQM mean little below {FEW_EPISODES}"
             )
-        return frame.to_string(float_format=number_format(numbers)) + "\n" + "\n".join(f"  {n}" for n in notes)
+        body = frame.to_string(float_format=number_format(numbers))
+        return "\n".join([*self.protocol_lines(), "", body, *(f"  {n}" for n in notes)])
 
     def per_episode(self) -> pd.DataFrame:
         """One row per (policy, episode) with return, objective, components and final info."""
@@ -176,17 +242,33 @@ class BenchmarkResult:
             "labels": self.labels,  # policy as given (a model file's path) -> label in the tables and figures
             "step_unit": self.step_unit,
             "objective": list(self.objective),
+            "objective_is_return": self.objective_is_return,
+            "protocol": {"test": self.test_protocol, "description": self.description, "env_kwargs": self.env_kwargs},
+            "ranking": [self.labels[name] for name in self.ranking()],  # best first by the objective's IQM
             "episodes": [_jsonable(e) for e in self.episodes],
             "returns": self.returns,
             "components": self.components,
-            "final_info": self.final_info,
+            "final_info": {  # null where an episode ended without the value
+                name: {k: [v if np.isfinite(v) else None for v in vals] for k, vals in finals.items()}
+                for name, finals in self.final_info.items()
+            },
         }
-        written[2].write_text(json.dumps(record, indent=1))
+        written[2].write_text(json.dumps(record, indent=1, default=str))
         written += plots.save_figures(self, out)
         spec = registry().benchmarks.get(base_env(self.env_id))
         if spec is not None and spec.figures:
             written += list(load_object(spec.figures)(self, out))
         return written
+
+
+def _seeds_text(seeds: Sequence[Any]) -> str:
+    """Reset seeds for people: ``0..12`` for a run of consecutive ones, else the first few."""
+    if not seeds or all(s is None for s in seeds):
+        return "none"
+    if all(isinstance(s, int) for s in seeds) and list(seeds) == list(range(seeds[0], seeds[0] + len(seeds))):
+        return f"{seeds[0]}..{seeds[-1]}" if len(seeds) > 1 else str(seeds[0])
+    shown = ", ".join(str(s) for s in seeds[:5])
+    return shown + (", ..." if len(seeds) > 5 else "")
 
 
 def _jsonable(episode: Mapping[str, Any]) -> dict[str, Any]:
@@ -225,7 +307,8 @@ def run_episode(
 
     With ``objective`` (reward components), ``objective_rewards`` holds their sum at each step.
 
-    ``observer(step, return_so_far)``, if given, is called after the reset (step 0) and after each step.
+    ``observer(step, score_so_far)``, if given, is called after the reset (step 0) and after each step, with
+    the objective so far (the return so far without ``objective``).
     The reward of a vector-reward env is its ``info["scalar_reward"]``; its entries are the components.
     """
     reset = getattr(policy, "reset", None)
@@ -242,14 +325,14 @@ def run_episode(
     while not done:
         obs, reward, terminated, truncated, info = env.step(policy(obs))
         rewards.append(float(info.get("scalar_reward", reward)))
-        if observer is not None:
-            total += rewards[-1]
-            observer(len(rewards), total)
         step_comps = info.get("reward_components", {})
         for key, value in step_comps.items():
             comps[key] = comps.get(key, 0.0) + float(value)
         if objective:
             steps_objective.append(sum(float(step_comps.get(key, 0.0)) for key in objective))
+        if observer is not None:
+            total += steps_objective[-1] if objective else rewards[-1]
+            observer(len(rewards), total)
         done = terminated or truncated
     final = {k: float(info[k]) for k in final_keys if k in info}
     return {
@@ -289,14 +372,22 @@ def benchmark(
         test = protocol(env_id)
         kwargs = {**test.env_kwargs, **kwargs}
         plan: list[dict[str, Any]] = load_object(test.protocol)(kwargs)
+        description = test.description or f"{len(plan)} episodes"
     elif isinstance(episodes, int) and episodes > 0:
         plan = seeded_episodes(episodes, seed)
+        description = f"{episodes} seeded episode(s)"
     else:
         raise ConfigError(f'`episodes` must be "test" or a positive int, not {episodes!r}')
     if not policies:
         policies = list(spec.policies) if spec and spec.policies else baseline_names(env_id)
     result = BenchmarkResult(
-        env_id, plan, objective=spec.objective if spec else (), step_unit=spec.step_unit if spec else "step"
+        env_id,
+        plan,
+        objective=spec.objective if spec else (),
+        step_unit=spec.step_unit if spec else "step",
+        description=description,
+        test_protocol=episodes == "test",
+        env_kwargs=dict(kwargs),
     )
     final_keys = spec.final_info if spec else ()
     bar = None
@@ -327,7 +418,8 @@ def benchmark(
             result.returns[name] = [float(r["rewards"].sum()) for r in runs]
             keys = sorted({k for r in runs for k in r["components"]})
             result.components[name] = {k: [r["components"].get(k, 0.0) for r in runs] for k in keys}
-            result.final_info[name] = {k: [r["final"][k] for r in runs if k in r["final"]] for k in final_keys}
+            # NaN where an episode ended without the value (cut short by a time limit)
+            result.final_info[name] = {k: [r["final"].get(k, np.nan) for r in runs] for k in final_keys}
     finally:  # an error (a missing data file) is printed below the bar, not inside it
         if bar is not None:
             bar.close()

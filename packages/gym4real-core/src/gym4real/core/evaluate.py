@@ -73,7 +73,7 @@ class EnvResult:
         matrix = self.scores[agent]
         iqm, low, high = stats.iqm_ci(matrix, trained=True)
         entry: dict[str, Any] = {"seeds": matrix.shape[0], "episodes": matrix.shape[1], "iqm": iqm}
-        entry.update(iqm_low=low, iqm_high=high, normalized_iqm=None, low=None, high=None)
+        entry.update(iqm_low=low, iqm_high=high, normalized_iqm=None, low=None, high=None, scale=self.scale.record())
         if self.scale.usable:
             value, n_low, n_high = (float(v) for v in self.scale.normalise([iqm, low, high]))
             entry.update(normalized_iqm=value, low=n_low, high=n_high)
@@ -108,13 +108,9 @@ class Evaluation:
         """The reference agents (paper agents) found on any environment."""
         return list(dict.fromkeys(p for r in self.envs.values() for p, k in r.kinds.items() if k == "reference"))
 
-    def runs(self, policy: str) -> dict[str, np.ndarray]:
-        """Env id -> the policy's normalised run scores, on the environments that have a scale."""
-        return {
-            e: suite_score.run_scores(r.scores[policy], r.scale)
-            for e, r in self.envs.items()
-            if r.scale.usable and policy in r.scores
-        }
+    def runs(self, policy: str) -> dict[str, tuple[np.ndarray, suite_score.Scale]]:
+        """Env id -> the policy's scores and the env's scale, on the environments that have a scale."""
+        return {e: (r.scores[policy], r.scale) for e, r in self.envs.items() if r.scale.usable and policy in r.scores}
 
     def aggregate(self, policy: str) -> dict[str, Any]:
         """The policy's suite score: IQM, optimality gap and their stratified-bootstrap intervals (computed once)."""
@@ -136,6 +132,7 @@ class Evaluation:
                 "best_rule_based": r.scale.best,
                 "best": _finite(r.scale.top),
                 "note": r.scale.note,
+                **r.scale.record(),
             }
             for e, r in self.envs.items()
         }
@@ -154,15 +151,19 @@ class Evaluation:
         for env_id, result in self.envs.items():
             lines.append(f"== {env_id}  (reference runs: {result.reference})")
             scale = result.scale
-            lines.append(
-                f"   scale: 0 = random ({scale.random:.6g}), 1 = {scale.best} ({scale.top:.6g})"
-                if scale.usable
-                else f"   no normalised scale: {scale.note}"
-            )
+            objective = " + ".join(protocol(env_id).objective) or "the episode return"
+            lines.append(f"   objective (the score, higher is better): {objective}, per test episode")
+            if scale.usable and scale.difference is not None:
+                estimate, d_low, d_high = scale.difference
+                lines.append(
+                    f"   scale: 0 = random ({scale.random:.6g}), 1 = {scale.best} ({scale.top:.6g}); separated: "
+                    f"IQM {scale.best} - random = {estimate:.5g} [{d_low:.5g}, {d_high:.5g}]"
+                )
+            else:
+                lines.append(f"   no normalised scale: {scale.note}")
             records = {a: result.record(a) for a in self.agents if a in result.scores}
-            lines.append(
-                f"   {'policy':24s} {'kind':9s} {'seeds':>5s} {'IQM [95% CI]':>36s} {'normalised IQM [95% CI]':>32s}"
-            )
+            heads = f"{'objective IQM [95% CI]':>36s} {'normalised IQM [95% CI]':>32s}"
+            lines.append(f"   {'policy':24s} {'kind':9s} {'seeds':>5s} {heads}")
             for policy, matrix in result.scores.items():
                 trained = result.kinds[policy] != "baseline"
                 iqm, low, high = stats.iqm_ci(matrix, trained)
@@ -193,7 +194,10 @@ class Evaluation:
             value = f"{agg['iqm']:.3f} [{agg['low']:.3f}, {agg['high']:.3f}]"
             gap = f"{agg['optimality_gap']:.3f} [{agg['optimality_gap_low']:.3f}, {agg['optimality_gap_high']:.3f}]"
             lines.append(f"   {policy:24s} {kind:9s} {len(agg['envs']):>4d} {agg['runs']:>4d} {value:>26s} {gap:>26s}")
-        lines.append("   intervals: 95 % stratified bootstrap over seeds (one seed: no spread to resample)")
+        lines.append(
+            "   intervals: 95 % stratified bootstrap, seeds and test episodes resampled within each env; an env whose "
+            "anchors are not separated is left out"
+        )
         return "\n".join(lines)
 
     def episodes(self) -> pd.DataFrame:
@@ -409,7 +413,7 @@ def evaluate(
             scores[name], frame = _run_agent(name, env_id, builders, kwargs, plan)
             kinds[name], run_seeds[name] = "agent", [s for s, _ in builders]
             frames.append(frame)
-        anchors = {p: stats.iqm(m) for p, m in scores.items() if kinds[p] == "baseline"}
+        anchors = {p: m for p, m in scores.items() if kinds[p] == "baseline"}
         evaluation.envs[env_id] = EnvResult(
             env_id,
             suite_score.scale(env_id, anchors, spec.rule_based),

@@ -1,8 +1,10 @@
 """The paper's two benchmark figures, drawn headless with matplotlib.
 
-Policies are drawn by their short labels; each line has its own line style and marker, the markers at
-staggered steps so that lines which coincide stay visible, and a policy whose mean curve hides an
-earlier one's says so in the legend (``p79 (overlaps p78)``).
+Both plot the protocol's objective (the score; the return where the protocol names none), the policies
+best first by its IQM (:meth:`~gym4real.core.benchmark.BenchmarkResult.ranking`), and their titles say
+which episodes they show. Policies are drawn by their short labels; each line has its own line style and
+marker, the markers at staggered steps so that lines which coincide stay visible, and a policy whose mean
+curve hides an earlier one's says so in the legend (``p79 (overlaps p78)``).
 """
 
 from __future__ import annotations
@@ -21,12 +23,20 @@ MARKERS = ("o", "s", "^", "D", "v", "P", "X", "<", ">", "*")
 LINESTYLES = ("-", "--", "-.", ":")
 
 
-def mean_curves(
-    result: BenchmarkResult, objective: bool = False
-) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """Policy -> mean cumulative reward (or objective) per step with its 95 % band (low, high)."""
-    steps = result.objective_rewards if objective else result.rewards
-    return {name: stats.mean_band([np.cumsum(r) for r in eps]) for name, eps in steps.items()}
+def mean_curves(result: BenchmarkResult) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Policy (best first) -> mean cumulative objective per step with its 95 % band (low, high)."""
+    return {name: stats.mean_band([np.cumsum(r) for r in result.objective_steps(name)]) for name in result.ranking()}
+
+
+def objective_label(result: BenchmarkResult) -> str:
+    """The objective for an axis: ``objective (deficit + overflow + starving)`` or ``objective (= return)``."""
+    return "objective (= return)" if result.objective_is_return else f"objective ({result.objective_name})"
+
+
+def episodes_label(result: BenchmarkResult) -> str:
+    """The episodes a figure shows: ``13 test episodes`` or ``3 seeded episodes (not the test protocol)``."""
+    n = len(result.episodes)
+    return f"{n} test episodes" if result.test_protocol else f"{n} episodes, not the test protocol"
 
 
 def overlapping(curves: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]], tol: float = 1e-3) -> dict[str, str]:
@@ -52,14 +62,15 @@ def legend_labels(
     return {n: f"{labels[n]} (overlaps {labels[hidden[n]]})" if n in hidden else labels[n] for n in curves}
 
 
-def save_figures(result: BenchmarkResult, out: Path, objective: bool = False) -> list[Path]:
-    """Write ``cumulative_reward.png`` (mean with a 95 % band) and ``returns_boxplot.png``.
+def save_figures(result: BenchmarkResult, out: Path) -> list[Path]:
+    """Write ``cumulative_reward.png`` (mean cumulative objective with a 95 % band) and ``returns_boxplot.png``.
+
+    Both plot the objective, the score claims are checked on and policies ranked by (the return where the
+    protocol names no objective); the file names are kept for the pages that link them.
 
     Args:
         result: The benchmark's result.
         out: The folder.
-        objective: Plot the objective (the sum of ``result.objective``'s components, the score that claims
-            are checked on) instead of the full reward, when the result has one.
     """
     import matplotlib
 
@@ -67,9 +78,9 @@ def save_figures(result: BenchmarkResult, out: Path, objective: bool = False) ->
     import matplotlib.pyplot as plt
 
     paths = [out / "cumulative_reward.png", out / "returns_boxplot.png"]
-    objective = objective and bool(result.objective_rewards)
-    what = f"objective ({' + '.join(result.objective)})" if objective else "reward"
-    curves = mean_curves(result, objective)
+    what = objective_label(result)
+    shown = episodes_label(result)
+    curves = mean_curves(result)
     legend = legend_labels(result, curves)
     fig, ax = plt.subplots(figsize=(8.5, 4.2))
     n = len(curves)
@@ -89,18 +100,18 @@ def save_figures(result: BenchmarkResult, out: Path, objective: bool = False) ->
         for edge in (low, high):  # the band's edges, so that overlapping bands stay apart
             ax.plot(steps, edge, color=line.get_color(), linewidth=0.6, alpha=0.7)
     ax.set(xlabel=result.step_unit, ylabel=f"cumulative {what}")
-    ax.set_title(f"{result.env_id}: mean cumulative {what.split(' ')[0]} (95 % CI band)")
-    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, frameon=False)
+    ax.set_title(f"{result.env_id}: mean cumulative objective, {shown} (95 % band)")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, frameon=False, title="best first (IQM)")
     fig.tight_layout()
     fig.savefig(paths[0], dpi=120)
     plt.close(fig)
 
     fig, ax = plt.subplots(figsize=(max(7.0, 1.3 * n), 4.2))
     labels = result.labels
-    values = [result.objective_values(n) if objective else result.returns[n] for n in result.returns]
-    ax.boxplot(values, tick_labels=[labels[name] for name in result.returns])
-    per_episode = "episode objective" if objective else "episode return"
-    ax.set(xlabel="policy", ylabel=per_episode, title=f"{result.env_id}: {per_episode} per policy")
+    ranked = result.ranking()
+    ax.boxplot([result.objective_values(name) for name in ranked], tick_labels=[labels[name] for name in ranked])
+    ax.set(xlabel="policy (best first by IQM)", ylabel=f"episode {what}")
+    ax.set_title(f"{result.env_id}: episode objective per policy, {shown}")
     if any(len(label) > 14 for label in labels.values()):
         ax.tick_params(axis="x", labelrotation=20)
     fig.tight_layout()

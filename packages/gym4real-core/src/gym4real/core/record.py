@@ -1,8 +1,10 @@
 """Videos of a policy acting in an environment: ``gym4real record`` (an MP4 and an animated GIF per episode).
 
 Each frame is the env's ``render_mode="rgb_array"`` frame under a caption with the env, the policy, the
-episode, the step and the return so far; an env that declares ``rgb_array_list`` itself (a robot whose
-step is a whole pick) is filmed with it: every frame of each step. The MP4 holds every step and is
+episode, the step and the objective so far (the protocol's objective, the score of ``gym4real bench`` and
+``evaluate``; the return where the env has no protocol or its protocol names no objective); an env that
+declares ``rgb_array_list`` itself (a robot whose step is a whole pick) is filmed with it: every frame of
+each step. The MP4 holds every step and is
 written while the episode runs (a year of hourly frames never sits in memory); it needs MoviePy (``pip install
 "gym4real-core[video]"``): without it the GIF alone is written, with a :class:`NoMp4Warning` saying so.
 The GIF, for documentation, holds at most ``gif_frames`` evenly spaced frames (every k-th step, k
@@ -26,7 +28,7 @@ from gym4real.core.benchmark import policy_name, run_episode
 from gym4real.core.canvas import captioned
 from gym4real.core.errors import ConfigError, Gym4RealError
 from gym4real.core.policies import make_policy
-from gym4real.core.registry import env_spec
+from gym4real.core.registry import base_env, env_spec, registry
 
 
 class GifFrames:
@@ -62,6 +64,10 @@ class GifFrames:
         duration = max(20, round(1000 / fps))
         first.save(path, save_all=True, append_images=rest, duration=duration, loop=0, optimize=True)
 
+
+#: Characters the caption's changing line (seed, step, objective) is padded to, so that every frame of a
+#: video keeps the width of the first: a frame narrower than its caption is widened to it.
+CAPTION_CHARS = 48
 
 #: Why an MP4 cannot be written, and the fix.
 MP4_NEEDS_MOVIEPY = 'writing an MP4 needs MoviePy: `pip install "gym4real-core[video]"`'
@@ -150,6 +156,8 @@ def record(
         kwargs["max_episode_steps"] = max_steps
     env = gym.make(env_id, **kwargs)
     label = policy_label(policy)
+    spec = registry().benchmarks.get(base_env(env_id))
+    objective = spec.objective if spec is not None else ()
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
     rate = float(fps or env.metadata.get("render_fps") or 4)
@@ -164,7 +172,7 @@ def record(
         for i in range(episodes):
             stem = folder / re.sub(r"[^\w.-]+", "_", f"{env_id.split('/')[-1]}-{label}-seed{seed + i}")
             written += _record_episode(
-                env, acting, seed + i, stem, rate, writer_class, gif, gif_frames, bar, (env_id, label)
+                env, acting, seed + i, stem, rate, writer_class, gif, gif_frames, bar, (env_id, label), objective
             )
     finally:
         env.close()
@@ -184,6 +192,7 @@ def _record_episode(
     gif_frames: int,
     bar: Any,
     names: tuple[str, str],
+    objective: tuple[str, ...] = (),
 ) -> list[Path]:
     writer = None
     keeper = GifFrames(gif_frames) if gif else None
@@ -191,7 +200,8 @@ def _record_episode(
     def on_step(step: int, total: float) -> None:
         nonlocal writer
         rendered = env.render()
-        lines = (f"{names[0]}  policy {names[1]}", f"seed {seed}  step {step}  return {total:.6g}")
+        progress = f"seed {seed}  step {step}  objective {total:.6g}".ljust(CAPTION_CHARS)
+        lines = (f"{names[0]}  policy {names[1]}", progress)
         for frame in rendered if isinstance(rendered, list) else [rendered]:
             if not isinstance(frame, np.ndarray):
                 raise Gym4RealError(f"`{names[0]}` rendered {type(frame).__name__}, not an rgb_array frame")
@@ -208,7 +218,7 @@ def _record_episode(
             bar.update()
 
     try:
-        run_episode(env, policy, seed, None, observer=on_step)
+        run_episode(env, policy, seed, None, observer=on_step, objective=objective)
     finally:
         if writer is not None:
             writer.close()

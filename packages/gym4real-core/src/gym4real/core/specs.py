@@ -209,7 +209,8 @@ class BenchmarkSpec:
             dict with ``seed`` and ``options`` for ``reset``.
         env_kwargs: Keyword arguments of ``make()`` for evaluation (for example ``{"preset": "test"}``).
         policies: The baselines the default benchmark compares.
-        objective: Reward components whose sum is the paper's objective, reported beside the return.
+        objective: Reward components whose per-episode sum is the paper's objective: the score (higher is
+            better) that ``bench``, ``evaluate``, the suite score and the results page rank by; empty: the return.
         final_info: ``info`` keys whose value at the end of an episode is reported (final SoH, ...).
         figures: ``"module:function"``; ``function(result, out)`` draws the domain's own figures of the
             paper into the folder ``out`` and returns their paths (beside the two common figures).

@@ -37,21 +37,6 @@ def iqm(values: Sequence[float] | np.ndarray) -> float:
     return float(sps.trim_mean(x, 0.25, axis=None)) if x.size else float("nan")
 
 
-def bootstrap_ci(
-    values: Sequence[float], level: float = 0.95, n_boot: int = 2000, seed: int = 0
-) -> tuple[float, float]:
-    """Percentile bootstrap confidence interval of the mean (scipy; seeded, so reports are reproducible)."""
-    x = np.asarray(values, dtype=float)
-    if len(x) == 0:
-        return float("nan"), float("nan")
-    if len(x) == 1 or np.all(x == x[0]):
-        return float(x[0]), float(x[0])
-    res = sps.bootstrap(
-        (x,), np.mean, confidence_level=level, n_resamples=n_boot, method="percentile", rng=np.random.default_rng(seed)
-    )
-    return float(res.confidence_interval.low), float(res.confidence_interval.high)
-
-
 def mean_band(curves: Sequence[np.ndarray], z: float = 1.96) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Mean and normal 95 % band over episodes of per-step curves of possibly different lengths."""
     length = max(len(c) for c in curves)

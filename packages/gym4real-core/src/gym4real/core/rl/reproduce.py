@@ -217,7 +217,7 @@ def reproduce_env(
     groups = {name: [name] for name in baselines}
     for run in runs:
         groups.setdefault(run.algo, []).append(run.policy)
-    plots.save_figures(pooled(result, groups), folder, objective=True)
+    plots.save_figures(pooled(result, groups), folder)
     _curves(runs, folder)
     return EnvReport(pd.read_csv(folder / "summary.csv"), claims)
 

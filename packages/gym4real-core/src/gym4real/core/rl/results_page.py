@@ -458,18 +458,18 @@ def suite_scores(sections: list[Section]) -> list[str]:
     (0 = ``random``, 1 = the env's best rule-based baseline), the same numbers ``gym4real evaluate`` prints
     beside a user's agent.
     """
-    from gym4real.core import stats, suite_score
+    from gym4real.core import suite_score
     from gym4real.core.benchmark import protocol
     from gym4real.core.episodes import score_matrices
 
-    runs: dict[str, dict[str, np.ndarray]] = {}
+    runs: dict[str, dict[str, tuple[np.ndarray, suite_score.Scale]]] = {}
     scales: list[str] = []
     for section in sections:
         if section.budget != "paper":
             continue
         env_id = section.report["env_id"]
         scores, seeds = score_matrices(section.episodes, section.name)
-        anchors = {p: stats.iqm(m) for p, m in scores.items() if not seeds[p]}
+        anchors = {p: m for p, m in scores.items() if not seeds[p]}
         env_scale = suite_score.scale(env_id, anchors, protocol(env_id).rule_based)
         if not env_scale.usable:
             scales.append(f"`{env_id}`: no scale ({env_scale.note})")
@@ -477,7 +477,7 @@ def suite_scores(sections: list[Section]) -> list[str]:
         scales.append(f"`{env_id}`: 0 = random, 1 = `{env_scale.best}`")
         for policy, matrix in scores.items():
             if seeds[policy]:
-                runs.setdefault(policy, {})[env_id] = suite_score.run_scores(matrix, env_scale)
+                runs.setdefault(policy, {})[env_id] = (matrix, env_scale)
     if not runs:
         return []
     lines = [
@@ -485,7 +485,8 @@ def suite_scores(sections: list[Section]) -> list[str]:
         "",
         "Each run (a training seed on an env) scores the IQM of its test episodes on the env's scale: 0 is the "
         "`random` baseline, 1 the env's best rule-based baseline. An agent's suite score is the IQM of its runs "
-        "over the envs it was trained on, with a stratified bootstrap (seeds resampled within each env) and its "
+        "over the envs it was trained on, with a stratified bootstrap (seeds and test episodes resampled within each "
+        "env) and its "
         "optimality gap (mean shortfall below 1). `gym4real evaluate` puts your agent on the same scale. "
         + "Scales: "
         + "; ".join(scales)
