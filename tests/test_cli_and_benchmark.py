@@ -100,9 +100,12 @@ def test_cli_bench_writes_table_and_figures(tmp_path: Path) -> None:
     assert (tmp_path / "returns_boxplot.png").exists()
 
 
-def test_cli_data_list_and_verify(capsys: pytest.CaptureFixture[str]) -> None:
+def test_cli_data_list_and_verify(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     if not registry().datasets:
         pytest.skip("no installed domain registers data")
+    monkeypatch.setenv("GYM4REAL_CACHE_DIR", str(tmp_path))  # a stand-in in the user's cache would be listed
     assert main(["data", "list"]) == 0
     absent = _absent()
     listed = capsys.readouterr().out.splitlines()

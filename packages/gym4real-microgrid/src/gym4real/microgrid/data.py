@@ -27,9 +27,10 @@ TRAIN_DEMAND = "demand/train"
 STAND_IN = "microgrid/demand/profiles_train_standin.csv"
 #: Households of the paper's training file (``profiles_train.csv``).
 PAPER_HOUSEHOLDS = 370
-#: Seconds to synthesize one stand-in household with one job (:mod:`gym4real.microgrid.standin`), measured on
-#: a shared 2-core machine under load (about 13 s; a few seconds on an idle core).
-SECONDS_PER_HOUSEHOLD = 13.0
+#: Seconds to synthesize one stand-in household with one job on a core of its own (:mod:`gym4real.microgrid.standin`):
+#: its CPU time, 21.2 s measured for one household on a 2-core machine (richardsonpy 0.2.3; 23 s per household
+#: in a 370-household run with two jobs). A loaded machine takes longer: the job gets a share of a core.
+SECONDS_PER_HOUSEHOLD = 21.0
 
 
 class StandInWarning(UserWarning):
