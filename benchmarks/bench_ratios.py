@@ -13,8 +13,8 @@ alike); reported: the median of the rounds' ratios with its quartiles, and the r
 
 A native batch resets all its copies together once per episode, which short blocks rarely include:
 ``best_with_resets`` adds an unseeded ``reset()`` spread over the episode's steps to the fastest block.
-Each row gives the goal of issue 25 where there is one and whether the median meets it, as the issue
-measures it (on a quiet machine). ``best`` is the ratio of the fastest blocks: on a machine shared with
+Each row gives the goal of issues 25 and 35 where there is one and whether the median meets it, as the
+issues measure it (on a quiet machine). ``best`` is the ratio of the fastest blocks: on a machine shared with
 other work, processes are descheduled for milliseconds at a time, which inflates whole blocks and makes the
 medians wander, and the fastest blocks are the ones that ran undisturbed. On a quiet machine the median and
 ``best`` agree unless the work of a step changes along the episode: the batched dam's days cost more in
@@ -44,7 +44,10 @@ STEP_TIME_GOALS = {"gym4real/elevator-v0": 0.35, "gym4real/dam-v0": 1.2}
 NATIVE_THROUGHPUT_GOALS = {
     "gym4real/elevator-v0": 1.0,
     "gym4real/trading-v0": 1.0,
-    "gym4real/dam-v0": 0.3,
+    # issue 35: the batched dam stays bit-identical to the single env, so each sub-step on the rating curve
+    # calls libm's `pow` as the single env does; at that, its goal is 0.25x `CartPoleVectorEnv(1024)` by the
+    # median (measured 0.23-0.35), not issue 25's 0.3
+    "gym4real/dam-v0": 0.25,
     "gym4real/microgrid-v0": 0.25,
 }
 

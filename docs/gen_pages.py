@@ -355,7 +355,9 @@ PAPER_BIBTEX = """@misc{salaorni2025gym4real,
             and Papini, Matteo and Metelli, Alberto Maria
             and Mussi, Marco and Restelli, Marcello},
   year   = {2025},
-  note   = {Preprint}
+  eprint = {2507.00257},
+  archivePrefix = {arXiv},
+  url    = {https://arxiv.org/abs/2507.00257}
 }"""
 
 

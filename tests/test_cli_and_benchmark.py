@@ -101,9 +101,12 @@ def test_cli_bench_writes_table_and_figures(tmp_path: Path) -> None:
     assert (tmp_path / "returns_boxplot.png").exists()
 
 
-def test_cli_data_list_and_verify(capsys: pytest.CaptureFixture[str]) -> None:
+def test_cli_data_list_and_verify(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     if not registry().datasets:
         pytest.skip("no installed domain registers data")
+    monkeypatch.setenv("GYM4REAL_CACHE_DIR", str(tmp_path))  # a stand-in in the user's cache would be listed
     assert main(["data", "list"]) == 0
     absent = _absent()
     listed = capsys.readouterr().out.splitlines()
@@ -121,7 +124,7 @@ def test_cli_data_list_and_verify(capsys: pytest.CaptureFixture[str]) -> None:
     assert (f"{absent} missing" in err) if absent else err == ""
 
 
-def test_a_missing_data_file_is_reported_below_the_progress_bar(tmp_path: Path) -> None:
+def test_a_missing_data_file_is_reported_before_any_progress_bar_is_drawn(tmp_path: Path) -> None:
     if "gym4real/dam-v0" not in gym4real.list_envs():
         pytest.skip("gym4real-dam is not installed")
     env = {k: v for k, v in os.environ.items() if k != "GYM4REAL_DATA_DIR"}
@@ -129,7 +132,7 @@ def test_a_missing_data_file_is_reported_below_the_progress_bar(tmp_path: Path) 
     cmd = [sys.executable, "-m", "gym4real.core.cli", "bench", "gym4real/dam-v0", "--episodes", "1"]
     run = subprocess.run(cmd, capture_output=True, text=True, env=env, check=False)
     assert run.returncode == 2
-    assert "episode/s]" in run.stderr  # the progress bar was drawn
+    assert "episode/s]" not in run.stderr  # no progress bar drawn before the error
     [error] = [line for line in run.stderr.splitlines() if "gym4real: error:" in line]
     assert error.startswith("gym4real: error: data file `dam/"), run.stderr
     assert "GYM4REAL_DATA_DIR (not set)" in error and "github.com/Daveonwave/gym4ReaL at commit 774d5ce" in error
@@ -196,6 +199,29 @@ def test_cli_info_text_has_no_rest_double_backticks(capsys: pytest.CaptureFixtur
     text = capsys.readouterr().out
     assert "``" not in text
     assert " ".join(episode_end.replace("``", "").split()) in " ".join(text.split())
+
+
+def test_info_of_a_box_with_infinite_bounds_says_them_without_a_numpy_warning() -> None:
+    """trading-v0's observation bounds are infinite: their range was inf - inf (a RuntimeWarning on the terminal)."""
+    import warnings
+
+    import gymnasium as gym
+
+    from gym4real.core.info import space_text
+
+    inf = np.inf
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        assert space_text(gym.spaces.Box(-inf, inf, (8,), np.float64)) == "Box(-inf..inf, (8,), float64)"
+        mixed = gym.spaces.Box(np.array([-inf] * 7 + [0.0]), np.full(8, inf), dtype=np.float64)
+        assert space_text(mixed) == "Box(-inf..inf, (8,), float64; bounds vary by entry)"
+        done = subprocess.run(
+            [sys.executable, "-W", "error::RuntimeWarning", "-m", "gym4real.core.cli", "info", "gym4real/trading-v0"],
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+    assert done.returncode == 0 and "Warning" not in done.stderr, done.stderr
 
 
 def test_a_reader_that_goes_away_is_not_an_error() -> None:

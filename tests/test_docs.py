@@ -65,9 +65,163 @@ def test_citation_names_the_installed_suite_version_and_the_readme_carries_it(
     text = gen_pages.citation()
     paper, suite = re.findall(r"```bibtex\n(.*?)```", text, re.S)
     assert "title  = {{Gym4ReaL}: A Suite for Benchmarking Real-World" in paper and "year   = {2025}" in paper
+    assert "eprint = {2507.00257}" in paper and "archivePrefix = {arXiv}" in paper  # the paper's arXiv id
+    assert "url    = {https://arxiv.org/abs/2507.00257}" in paper
     assert f"version = {{{version('gym4real-core')}}}" in suite
     readme = _section((ROOT / "README.md").read_text(encoding="utf-8"), "How to cite")
     assert paper in readme and suite in readme
+
+
+def test_the_readmes_evaluate_path_is_the_folder_train_writes() -> None:
+    """`{env}` of `evaluate` is the id's name, the folder name of `train`'s runs (and of `reproduce`'s envs)."""
+    from gym4real.core.evaluate import _filled
+    from gym4real.core.rl.train import default_out
+
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    (env_id, algo, preset, seed), *_ = re.findall(
+        r"gym4real train (\S+) --algo (\w+) --preset (\w+) --seed (\d+)", readme
+    )
+    (policy,) = re.findall(rf'gym4real evaluate "\w+={algo}:([^"]*\{{env\}}[^"]*)"', readme)
+    model = "model.zip" if algo in ("ppo", "dqn") else "qtable.npz"
+    assert _filled(policy, env_id, int(seed)) == str(default_out(env_id, algo, preset, int(seed)) / model)
+    assert default_out("gym4real/dam-v0", "ppo", "paper", 0) == Path("runs/dam-v0/ppo-paper-seed0")
+
+
+def test_the_evaluate_tutorial_installs_from_a_clean_machine_and_the_home_page_links_it() -> None:
+    page = (ROOT / "docs" / "evaluate.md").read_text(encoding="utf-8")
+    install = _section(page, "0. Install and get the data")
+    commands = " ".join(re.findall(r"```bash\n(.*?)```", install, re.S))
+    assert "pip install torch --index-url https://download.pytorch.org/whl/cpu" in commands  # the CPU build
+    assert '"./packages/gym4real-core[rl]"' in commands
+    envs = re.findall(r'"(gym4real/[a-z0-9-]+)"', _section(page, "1. Train your agent"))
+    assert envs
+    for env_id in envs:  # the domain of every environment the tutorial uses, and its data
+        domain = env_id.split("/")[1].split("-")[0]
+        assert f"./packages/gym4real-{domain}" in commands and (ROOT / "packages" / f"gym4real-{domain}").is_dir()
+        assert re.search(rf"gym4real data fetch [a-z ]*\b{domain}\b", commands)
+    assert "export GYM4REAL_DATA_DIR=" in commands
+    pyproject = (ROOT / "packages" / "gym4real-core" / "pyproject.toml").read_text(encoding="utf-8")
+    assert re.search(r"^rl = \[", pyproject, re.M)  # the extra the page installs
+    body = HOME.read_text(encoding="utf-8")
+    assert "](evaluate.md)" in body  # in the page's text, not only in the navigation
+
+
+def test_the_evaluate_tutorials_example_output_has_the_tables_layout() -> None:
+    """The page's example output is `Evaluation.table()`'s: its headers are those the code prints now."""
+    page = (ROOT / "docs" / "evaluate.md").read_text(encoding="utf-8")
+    (example,) = re.findall(r"It prints, for example.*?```\n(.*?)```", page, re.S)
+    table = gym4real.evaluate({}, ["gym4real/wds-v0"]).table()
+    headers = [line for line in table.splitlines() if line.strip().startswith(("policy", "== suite score"))]
+    assert len(headers) == 3 and all(line in example.splitlines() for line in headers)
+    assert "(reference runs: paper budget, gym4real.wds: reference/wds-v0.csv)" in table  # no path of this machine
+    assert "== gym4real/trading-v0  (reference runs: " in example and "   P(a2c > " in example
+
+
+def test_the_cluster_page_speaks_of_machines_generically() -> None:
+    page = (ROOT / "docs" / "cluster.md").read_text(encoding="utf-8")
+    assert "a 2-core machine" in page and "a GPU machine" in page
+    assert not re.search(r"this project's|\blent\b|our machine", page)
+
+
+def test_the_api_references_docstring_roles_become_links_to_objects_on_its_pages(
+    load_script: Callable[[Path], ModuleType], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """mkdocstrings prints `:func:`...`` as text: the site's griffe extension rewrites every role of the
+    rendered docstrings as a cross-reference to a rendered object (a link), or as code."""
+    import importlib.util
+    import inspect
+
+    if importlib.util.find_spec("griffe") is None:  # the extension's base class (mkdocstrings brings griffe)
+        monkeypatch.setitem(sys.modules, "griffe", ModuleType("griffe"))
+        sys.modules["griffe"].Extension = object  # type: ignore[attr-defined]
+    roles = load_script(ROOT / "docs" / "griffe_roles.py")
+    assert "docs/griffe_roles.py" in (ROOT / "mkdocs.yml").read_text(encoding="utf-8")
+    roots = roles.documented()
+    docstrings = []  # (docstring, its module) of every object the API pages render
+    for root in roots:
+        obj = roles.lookup(root)
+        scope = obj.__name__ if inspect.ismodule(obj) else obj.__module__
+        docstrings.append((inspect.getdoc(obj) or "", scope))
+        if inspect.ismodule(obj) or inspect.isclass(obj):
+            docstrings += [(inspect.getdoc(v) or "", scope) for k, v in vars(obj).items() if not k.startswith("_")]
+    assert sum(len(roles.ROLE.findall(text)) for text, _ in docstrings) >= 20  # roles printed as text today
+    links = set()
+    for text, scope in docstrings:
+        converted = roles.convert(text, roots, scope)
+        assert not roles.ROLE.search(converted), converted
+        link = r"\[`[^`]+`\]\[([\w.]+)\]"
+        links |= set(re.findall(link, converted)) - set(re.findall(link, text))  # the roles' links
+    for identifier in links:  # each names an object the pages render: a root, or a public member of one
+        assert roles.lookup(identifier) is not None
+        assert any(identifier == r or identifier.startswith(r + ".") for r in roots), identifier
+    assert {
+        "gym4real.core.errors.ConfigError",
+        "gym4real.core.suite_score",
+        "gym4real.core.benchmark.benchmark",
+    } <= links
+
+
+def test_the_readme_states_the_batched_dams_speed_goal_that_bench_ratios_checks(
+    load_script: Callable[[Path], ModuleType], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Issue 35: bit-identical to the single env (libm's `pow`), at least 0.25x CartPoleVectorEnv(1024)."""
+    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))  # bench_ratios imports its folder's report.py
+    bench = load_script(ROOT / "benchmarks" / "bench_ratios.py")
+    goal = bench.NATIVE_THROUGHPUT_GOALS["gym4real/dam-v0"]
+    assert goal == 0.25
+    readme = " ".join((ROOT / "README.md").read_text(encoding="utf-8").split())
+    assert f"at least {goal:g}x as fast as `CartPoleVectorEnv(1024)` by the median" in readme
+
+
+def _gallery_output(script: Path) -> tuple[str, list[str]]:
+    """Run a tutorial as the docs' gallery does, cell by cell, printing the repr of a cell's last expression
+    when it is not None; return what it printed and the warnings it raised."""
+    import ast
+    import contextlib
+    import io
+    import warnings
+
+    namespace: dict[str, object] = {"__name__": "__main__", "__file__": str(script)}
+    printed = io.StringIO()
+    with warnings.catch_warnings(record=True) as caught, contextlib.redirect_stdout(printed):
+        warnings.simplefilter("always")
+        for cell in script.read_text(encoding="utf-8").split("\n# %%"):
+            tree = ast.parse(cell)
+            last = tree.body.pop() if tree.body and isinstance(tree.body[-1], ast.Expr) else None
+            exec(compile(tree, str(script), "exec"), namespace)
+            if last is not None:
+                value = eval(compile(ast.Expression(last.value), str(script), "eval"), namespace)
+                if value is not None:
+                    print(repr(value))
+    return printed.getvalue(), [f"{w.category.__name__}: {w.message}" for w in caught]
+
+
+TUTORIALS = sorted((ROOT / "examples" / "tutorials").glob("tutorial_*.py"))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("script", TUTORIALS, ids=[t.stem for t in TUTORIALS])
+def test_an_executed_tutorial_prints_no_path_of_this_machine_no_warning_and_no_object_address(
+    script: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    pytest.importorskip("stable_baselines3")
+    pytest.importorskip("minari")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("MPLBACKEND", "Agg")
+    printed, warned = _gallery_output(script)
+    assert not warned, warned
+    assert not re.search(r" object at 0x[0-9a-f]+>", printed), printed
+    for path in (str(ROOT), str(tmp_path), "/tmp/", sys.prefix):
+        assert path not in printed, (path, printed)
+
+
+def test_code_in_tables_is_never_broken_mid_word() -> None:
+    """Material breaks inline code anywhere: the stylesheet keeps the ids of the results tables whole."""
+    css = (ROOT / "docs" / "stylesheets" / "extra.css").read_text(encoding="utf-8")
+    rules = dict(re.findall(r"([^{}]+?)\s*\{([^}]*)\}", re.sub(r"/\*.*?\*/", "", css, flags=re.S)))
+    (body,) = [body for selector, body in rules.items() if re.search(r"\btable\b.*\bcode$", selector.strip())]
+    declarations = dict(re.findall(r"([\w-]+)\s*:\s*([^;]+);", body))
+    assert declarations == {"word-break": "normal", "overflow-wrap": "normal", "white-space": "nowrap"}
 
 
 def test_home_verdicts_are_the_results_pages(load_script: Callable[[Path], ModuleType]) -> None:

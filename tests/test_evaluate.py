@@ -145,6 +145,27 @@ def test_a_seed_asked_of_a_single_model_or_policy_object_is_refused(references: 
         gym4real.evaluate({"m": lambda obs: 0}, [ENV], seeds=[0, 1], references=references)
 
 
+def test_seeds_as_a_number_are_the_first_seeds_of_each_envs_plan_as_reproduce_trains_them(
+    references: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`seeds=2` scores the models of `gym4real reproduce ... --seeds 2` (elevator: the paper's 42, then 0)."""
+    from gym4real.core.rl.plan import seeds as plan_seeds
+    from gym4real.elevator.baselines import longest_first
+
+    called: list[int] = []
+
+    def factory(env: object, seed: int) -> object:
+        called.append(seed)
+        return longest_first(env)
+
+    evaluation = gym4real.evaluate({"mine": factory}, [ENV], seeds=2, references=references)
+    assert called == plan_seeds(ENV, "paper", 2) == [42, 0]
+    assert evaluation.score()["envs"][ENV]["seeds"] == 2
+    path = "qlearning:runs/{env}/qlearning-paper-seed{seed}/qtable.npz"  # as `gym4real train` names its folders
+    assert main(["evaluate", f"q={path}", "--envs", ENV, "--seeds", "1", "--out", str(tmp_path)]) == 2
+    assert "runs/elevator-v0/qlearning-paper-seed42/qtable.npz" in capsys.readouterr().err  # the paper's seed
+
+
 @pytest.mark.parametrize(
     ("rows", "message"),
     [

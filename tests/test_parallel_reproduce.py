@@ -108,6 +108,28 @@ def test_two_jobs_train_the_same_runs_as_one(tmp_path: Path) -> None:
     assert bar.closed == len(two) and not bar.running
 
 
+@pytest.mark.slow
+def test_with_two_jobs_this_process_trains_from_the_plans_end_while_its_worker_starts(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A worker takes seconds to start: this process does not wait for it (the runs it trains here are the
+    patched ``run_item``'s, which a spawned worker does not see)."""
+    from gym4real.core.rl import runner
+
+    items = _plan(tmp_path / "two", tmp_path)
+    here: list[Item] = []
+    original = runner.run_item
+
+    def run_item(item: Item, progress: Any = None) -> Any:
+        here.append(item)
+        return original(item, progress)
+
+    monkeypatch.setattr(runner, "run_item", run_item)
+    outcomes = train_plan(items, jobs=2)
+    assert all(o.run is not None for o in outcomes), outcomes
+    assert here and here[0] == items[-1]  # the last run first; the worker takes them from the first
+
+
 def _workers() -> list[int]:
     """This process's spawned worker processes."""
     found = []
@@ -131,9 +153,11 @@ def test_a_killed_workers_run_resumes_from_its_checkpoint_to_the_uninterrupted_r
     preset.write_text(LONG_QLEARNING)
     whole = train("gym4real/elevator-v0", "qlearning", str(preset), seed=5, out=tmp_path / "whole")
     folder = tmp_path / "out" / "elevator-v0" / "quick" / "runs" / "qlearning" / "seed5"
+    busy = tmp_path / "busy.yaml"  # the run this process takes (from the plan's end) while the worker starts
+    busy.write_text(LONG_QLEARNING.replace("episodes: 150", "episodes: 600"))
     items = [
         Item("gym4real/elevator-v0", "qlearning", str(preset), 5, folder),
-        *plan("gym4real/elevator-v0", "quick", 1, tmp_path / "out")[1:],
+        Item("gym4real/elevator-v0", "qlearning", str(busy), 6, tmp_path / "out" / "busy"),
     ]
     killed: dict[str, int] = {}
 

@@ -178,3 +178,20 @@ def test_record_errors_are_one_line(capsys: pytest.CaptureFixture[str], tmp_path
     assert "`fps` must be a positive number" in capsys.readouterr().err
     assert main([*args, "--gif-frames", "1"]) == 2
     assert "`gif_frames` must be at least 2" in capsys.readouterr().err
+
+
+def test_record_imports_module_attr_from_the_working_folder(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """As ``bench`` and ``evaluate`` do, and as the unknown-module error says: no ``PYTHONPATH=.`` needed."""
+    (tmp_path / "my_recorded_agent.py").write_text(
+        "from gym4real.elevator.baselines import longest_first\n\n\ndef factory(env):\n    return longest_first(env)\n"
+    )
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(sys, "path", [p for p in sys.path if p not in ("", ".", str(tmp_path))])
+    monkeypatch.delitem(sys.modules, "my_recorded_agent", raising=False)
+    args = ["record", "gym4real/elevator-v0", "--policy", "my_recorded_agent:factory", "--out", "videos"]
+    assert main([*args, "--max-steps", "5", "--no-mp4", "--quiet"]) == 0, capsys.readouterr().err
+    (gif,) = (tmp_path / "videos").glob("*.gif")
+    assert len(_frames(gif)) == 6  # the reset and 5 steps
+    monkeypatch.delitem(sys.modules, "my_recorded_agent", raising=False)

@@ -176,6 +176,32 @@ def test_an_unknown_id_or_no_seed_is_refused_before_anything_runs(tmp_path: Path
     assert not (tmp_path / "cli").exists()
 
 
+def test_seeds_is_a_count_or_a_list_of_seeds_in_reproduce_as_in_evaluate(tmp_path: Path) -> None:
+    """`--seeds N`: the plan's first N seeds; `--seeds a,b,c`: these (one: `S,`); anything else is refused."""
+    from gym4real.core.errors import ConfigError
+    from gym4real.core.rl.plan import parse_seeds
+
+    assert parse_seeds("3") == 3 and parse_seeds("0,7") == [0, 7] and parse_seeds("7,") == [7]
+    for bad in ("", "x", "0,,1", "1.5", "-1,"):
+        with pytest.raises(ConfigError, match="neither a number of seeds"):
+            parse_seeds(bad)
+    assert seeds("gym4real/trading-v0", "paper", [0, 7]) == [0, 7]
+    algos = presets("gym4real/trading-v0", "quick")
+    assert [i.seed for i in plan("gym4real/trading-v0", "quick", [7], tmp_path)] == [7] * len(algos)
+
+    def planned(*args: str) -> list[tuple[str, str]]:
+        done = _cli("gym4real/trading-v0", *args, "--plan", "--out", str(tmp_path))
+        assert done.returncode == 0, done.stderr
+        return sorted((r.split()[1], r.split()[3]) for r in done.stdout.splitlines() if r.startswith("trading-v0 "))
+
+    assert planned("--budget", "quick", "--seeds", "0,7") == sorted(
+        (f"{algo}/{preset}", s) for algo, preset in algos.items() for s in ("0", "7")
+    )
+    assert {s for _, s in planned("--seeds", "2")} == {"32517", "84029"}  # a count: the paper's first two
+    done = _cli("gym4real/trading-v0", "--seeds", "0,0", "--plan", "--out", str(tmp_path))
+    assert done.returncode == 2 and "none twice" in done.stderr, done.stderr
+
+
 def test_all_means_the_envs_with_a_paper_comparison(tmp_path: Path) -> None:
     env = {**os.environ, "GYM4REAL_DISABLE_PLUGINS": "elevator,microgrid,robofeeder,trading,wds"}
     done = subprocess.run(

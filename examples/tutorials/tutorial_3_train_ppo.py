@@ -9,13 +9,14 @@ small budget, to show the steps; the paper's run is `gym4real train gym4real/dam
 # ## Train
 # Training uses the `train` years; the actions are learnt on [-1, 1] and rescaled to the release range.
 import gymnasium as gym
+import numpy as np
 from stable_baselines3 import PPO
 
 import gym4real
 
-env = gym.wrappers.RescaleAction(gym.make("gym4real/dam-v0", preset="train"), -1.0, 1.0)
-model = PPO("MlpPolicy", env, n_steps=1024, batch_size=64, seed=0, verbose=0)
-model.learn(total_timesteps=10240)
+# float32 bounds, the dtype of the dam's action space
+env = gym.wrappers.RescaleAction(gym.make("gym4real/dam-v0", preset="train"), np.float32(-1.0), np.float32(1.0))
+model = PPO("MlpPolicy", env, n_steps=1024, batch_size=64, seed=0, verbose=0).learn(total_timesteps=10240)
 
 
 # %%

@@ -11,15 +11,19 @@ Offline RL and imitation learning start from recorded episodes. `gym4real datase
 # queue first; the dataset goes in a folder of its own (Minari's `MINARI_DATASETS_PATH`).
 import os
 import tempfile
+import warnings
+from pathlib import Path
 
 import minari
 
 from gym4real.core.offline import collect, dataset_id
 
 out = tempfile.mkdtemp()
-folder = collect("gym4real/elevator-v0", "longest_first", episodes=2, out=out)
+with warnings.catch_warnings():  # Minari asks a published dataset for a code link and a contact: not this one
+    warnings.filterwarnings("ignore", message="`(code_permalink|author_email)` is set to None")
+    folder = collect("gym4real/elevator-v0", "longest_first", episodes=2, out=out)
 name = dataset_id("gym4real/elevator-v0", "longest_first")
-print(name, "written to", folder)
+print(name, "written to", Path("$MINARI_DATASETS_PATH") / folder.relative_to(Path(out).resolve()))
 
 # %%
 # ## Load

@@ -174,6 +174,36 @@ def test_binary_bytes_in_a_wds_network_field_are_refused_naming_the_line(
         gym4real.make("gym4real/wds-v0", network=str(network))
 
 
+def test_a_wds_pump_with_neither_head_curve_nor_power_is_refused_at_make_naming_it(tmp_path: Path) -> None:
+    """EPANET opens such a network and fails at the first solve (Error 110): it is refused when made instead."""
+    lines = resolve("wds/anytown").read_text().splitlines(keepends=True)
+    (row,) = [i for i, line in enumerate(lines) if line.split()[:1] == ["P79"]]
+    assert "HEAD H1" in lines[row]
+    lines[row] = lines[row].replace("HEAD H1", "")
+    network = tmp_path / "no_curve.inp"
+    network.write_text("".join(lines))
+    with pytest.raises(DataFileError, match=rf"`{re.escape(str(network))}`: pump\(s\) `P79` in \[PUMPS\]") as err:
+        gym4real.make("gym4real/wds-v0", network=str(network))
+    assert "P78" not in str(err.value) and "HEAD <curve id>" in str(err.value)
+
+
+@pytest.mark.parametrize(
+    ("cut", "missing"),
+    [
+        (lambda text: text[: text.index("[OPTIONS]")], "[OPTIONS], [END]"),  # a copy cut before its options
+        (lambda text: text[: text.index("[END]")], "[END]"),  # cut after its last section
+        (lambda text: re.sub(r"\[OPTIONS\].*?(?=\[COORDINATES\])", "", text, flags=re.S), "[OPTIONS]"),
+    ],
+    ids=["cut-before-options", "no-end", "no-options-section"],
+)
+def test_a_wds_network_cut_short_is_refused_naming_the_missing_sections(tmp_path: Path, cut: Any, missing: str) -> None:
+    """EPANET fills sections it did not read with defaults (GPM, other pressure limits): refused instead."""
+    network = tmp_path / "short.inp"
+    network.write_text(cut(resolve("wds/anytown").read_text()))
+    with pytest.raises(DataFileError, match=rf"`{re.escape(str(network))}` has no {re.escape(missing)} section"):
+        gym4real.make("gym4real/wds-v0", network=str(network))
+
+
 def test_a_non_utf8_wds_catalogue_is_a_data_file_error(tmp_path: Path) -> None:
     from gym4real.wds.demand import _read_catalogue
 

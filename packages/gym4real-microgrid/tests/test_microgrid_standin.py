@@ -96,6 +96,90 @@ def test_synthesize_names_a_domain_without_a_stand_in(capsys: pytest.CaptureFixt
     assert "domain `dam` has no stand-in data" in capsys.readouterr().err
 
 
+def test_training_on_fewer_stand_in_households_than_the_papers_warns_once_naming_the_count(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from gym4real.microgrid.data import StandInWarning
+
+    monkeypatch.setenv("GYM4REAL_CACHE_DIR", str(tmp_path / "cache"))
+    _fake_standin(tmp_path / "cache", households=3)
+    with pytest.warns(StandInWarning) as caught:
+        for _ in range(2):  # a second env (a second run of a plan) says nothing new
+            MicrogridEnv(preset="train").close()
+    (warning,) = [w for w in caught if issubclass(w.category, StandInWarning)]
+    assert "training on 3 stand-in households" in str(warning.message)
+    assert f"fewer than the {standin.HOUSEHOLDS}" in str(warning.message)
+    assert "gym4real data synthesize microgrid" in str(warning.message)
+
+
+def test_data_list_shows_the_stand_in_in_place_of_the_missing_training_file(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from gym4real.core.cli import main
+
+    monkeypatch.setenv("GYM4REAL_CACHE_DIR", str(tmp_path / "cache"))
+    assert datasets.find(standin.STANDS_IN_FOR) is None  # the paper's file is not in the data folder
+    assert main(["data", "list", "microgrid"]) == 0
+    assert "1 missing (microgrid/demand/train)" in capsys.readouterr().out
+    path = _fake_standin(tmp_path / "cache")
+    assert main(["data", "list", "microgrid"]) == 0
+    out = capsys.readouterr().out
+    (row,) = [line.split(maxsplit=3) for line in out.splitlines() if line.startswith(f"{standin.STANDS_IN_FOR} ")]
+    assert row[3:] == [f"stand-in  user cache ({path.name})"]
+    assert "missing" not in out and "Fix:" not in out
+
+
+def test_synthesize_without_the_load_model_says_how_to_install_it_before_anything_else(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import sys
+
+    from gym4real.core.cli import main
+
+    monkeypatch.setenv("GYM4REAL_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setitem(sys.modules, "richardsonpy", None)  # not installed: its import fails
+    assert main(["data", "synthesize", "microgrid", "--households", "2"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("gym4real: error: ") and "`pip install richardsonpy`" in err  # no progress bar drawn first
+    assert not (tmp_path / "cache").exists()  # nothing written
+
+
+def test_synthesize_states_the_expected_time_of_the_requested_households(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from gym4real.core.cli import main
+    from gym4real.microgrid.data import SECONDS_PER_HOUSEHOLD
+
+    written: list[tuple[int, int]] = []
+
+    def synthesize(out: Path, households: int, jobs: int, **_: object) -> Path:  # the model itself is slow
+        written.append((households, jobs))
+        return out
+
+    monkeypatch.setenv("GYM4REAL_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(standin, "check_tools", lambda: None)
+    monkeypatch.setattr(standin, "synthesize", synthesize)
+    assert main(["data", "synthesize", "microgrid", "--households", "40", "--jobs", "2", "--quiet"]) == 0
+    assert written == [(40, 2)]
+    minutes = 40 / 2 * SECONDS_PER_HOUSEHOLD / 60  # 20 households per job
+    assert f"synthesizing 40 households of microgrid with 2 job(s): about {minutes:.0f} min" in capsys.readouterr().err
+
+
+def test_reproduce_without_either_training_file_names_the_command_that_writes_the_stand_in_and_its_time(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    pytest.importorskip("stable_baselines3")
+    from gym4real.core.rl.reproduce import reproduce
+    from gym4real.microgrid.data import SECONDS_PER_HOUSEHOLD
+
+    monkeypatch.setenv("GYM4REAL_CACHE_DIR", str(tmp_path / "cache"))
+    text = reproduce(["gym4real/microgrid-v0"], "paper", 1, tmp_path / "out")
+    (line,) = [line for line in text.splitlines() if line.startswith("== gym4real/microgrid-v0")]
+    minutes = standin.HOUSEHOLDS * SECONDS_PER_HOUSEHOLD / 60
+    assert "not run" in line and "`gym4real data synthesize microgrid`" in line
+    assert f"about {minutes:.0f} min for the {standin.HOUSEHOLDS} households with one job" in line
+
+
 def test_the_fit_figure_is_drawn_from_the_two_files(tmp_path: Path) -> None:
     fake = _fake_standin(tmp_path)
     out = standin.fit_figure(fake, datasets.resolve("microgrid/demand/test"), tmp_path / "fit.png")

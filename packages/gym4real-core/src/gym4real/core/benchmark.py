@@ -49,7 +49,7 @@ def policy_name(ref: PolicyRef) -> str:
 def short_label(name: str) -> str:
     """The label of a policy in tables and figures: a model file ``kind:path`` by its run folder or file name.
 
-    ``qlearning:runs/gym4real_elevator-v0/qlearning-paper-seed0/qtable.npz`` -> ``qlearning-paper-seed0``
+    ``qlearning:runs/elevator-v0/qlearning-paper-seed0/qtable.npz`` -> ``qlearning-paper-seed0``
     (a run folder of ``gym4real train`` names the algorithm, preset and seed); ``ppo:models/best.zip`` ->
     ``ppo:best``; a baseline name is its own label.
     """
@@ -391,10 +391,6 @@ def benchmark(
     )
     final_keys = spec.final_info if spec else ()
     bar = None
-    if progress:
-        from tqdm.auto import tqdm
-
-        bar = tqdm(total=len(policies) * len(plan), desc=env_id, unit="episode")
     try:
         for ref in policies:
             name = policy_name(ref)
@@ -403,6 +399,10 @@ def benchmark(
                 if isinstance(env.unwrapped, MultiObjective):  # a vector reward: its entries are reported
                     result.objectives = env.unwrapped.components
                 policy = make_policy(env_id, ref, env)
+                if progress and bar is None:  # drawn once an env is made: a missing data file is said alone
+                    from tqdm.auto import tqdm
+
+                    bar = tqdm(total=len(policies) * len(plan), desc=env_id, unit="episode")
                 runs = []
                 for ep in plan:
                     runs.append(
@@ -420,7 +420,7 @@ def benchmark(
             result.components[name] = {k: [r["components"].get(k, 0.0) for r in runs] for k in keys}
             # NaN where an episode ended without the value (cut short by a time limit)
             result.final_info[name] = {k: [r["final"].get(k, np.nan) for r in runs] for k in final_keys}
-    finally:  # an error (a missing data file) is printed below the bar, not inside it
+    finally:  # a later error (a policy's model file) is printed below the bar, not inside it
         if bar is not None:
             bar.close()
     if out is not None:

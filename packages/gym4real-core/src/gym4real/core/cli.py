@@ -54,11 +54,12 @@ def _user_code_importable() -> None:
 
 def _cmd_bench(args: argparse.Namespace) -> None:
     from gym4real.core.benchmark import benchmark
+    from gym4real.core.rl.plan import slug
 
     _user_code_importable()
     episodes: int | str = int(args.episodes) if args.episodes.isdigit() else args.episodes
     policies = [p for p in args.policies.split(",") if p] if args.policies else None
-    out = Path(args.out or Path("results") / args.env_id.replace("/", "_"))
+    out = Path(args.out or Path("results") / slug(args.env_id))
     result = benchmark(
         args.env_id,
         policies,
@@ -77,6 +78,7 @@ def _cmd_record(args: argparse.Namespace) -> None:
 
     from gym4real.core.record import NoMp4Warning, record
 
+    _user_code_importable()
     with warnings.catch_warnings(record=True) as caught:  # each warning of the recording said in one line
         warnings.simplefilter("always", NoMp4Warning)
         paths = record(
@@ -136,6 +138,13 @@ def _synthesize(args: argparse.Namespace) -> None:
     if module is None:
         raise Gym4RealError(f"domain `{domain}` has no stand-in data (no `gym4real.{domain}.standin`)")
     kwargs = {k: getattr(args, k) for k in ("households", "seed") if getattr(args, k) is not None}
+    module.check_tools()  # a missing tool is said before anything is drawn or written
+    households = kwargs.get("households", module.HOUSEHOLDS)
+    print(
+        f"synthesizing {households} households of {domain} with {args.jobs} job(s): "
+        f"{module.expected_time(households, args.jobs)} (households already written are reused)",
+        file=sys.stderr,
+    )
     bar = None
     if not args.quiet:
         from tqdm.auto import tqdm
@@ -182,17 +191,18 @@ def _cmd_reproduce(args: argparse.Namespace) -> None:
     if bool(args.env_ids) == args.all:
         raise Gym4RealError("name the environments to reproduce, or pass --all (not both)")
     env_ids = list_envs(multi_objective=False) if args.all else args.env_ids
+    n_seeds = _seeds(args.seeds)
     if args.storage and not args.ray:
         raise Gym4RealError("--storage is where Ray workers keep the run folders: pass it with --ray")
     if args.plan:
         from gym4real.core.rl.estimate import plan_report
 
-        print(plan_report(env_ids, args.budget, args.seeds, Path(args.out), args.jobs))
+        print(plan_report(env_ids, args.budget, n_seeds, Path(args.out), args.jobs))
         return
     text = reproduce(
         env_ids,
         args.budget,
-        args.seeds,
+        n_seeds,
         args.out,
         progress=not args.quiet,
         page=args.page,
@@ -214,13 +224,11 @@ def _jobs(text: str) -> int:
     return int(text)
 
 
-def _seed_list(text: str | None) -> list[int] | None:
-    if text is None:
-        return None
-    try:
-        return [int(s) for s in text.split(",") if s.strip()]
-    except ValueError:
-        raise Gym4RealError(f"`--seeds {text}` must be comma-separated integers (`--seeds 0,1,2`)") from None
+def _seeds(text: str | None) -> int | list[int] | None:
+    """``--seeds`` of ``reproduce`` and ``evaluate``: one meaning (:data:`~gym4real.core.rl.plan.SeedRequest`)."""
+    from gym4real.core.rl.plan import parse_seeds
+
+    return None if text is None else parse_seeds(text)
 
 
 def _cmd_evaluate(args: argparse.Namespace) -> None:
@@ -235,14 +243,17 @@ def _cmd_evaluate(args: argparse.Namespace) -> None:
         name, ref = (name, ref) if sep and ":" not in name else (policy, policy)
         agents[name] = ref
     envs: str | list[str] = "all" if args.all else [e for e in args.envs.split(",") if e]
+    seeds = _seeds(args.seeds)
     if args.mo:  # the policies form sets (one per NAME), or a NAME is a weight-conditioned factory
         from gym4real.core.mo_eval import agents_of, evaluate_mo
 
-        found = evaluate_mo(agents_of(args.policies), envs, _seed_list(args.seeds), args.references, args.out)
+        # the -mo ids train nothing, so no plan names their seeds: N is 0, 1, ..., N - 1
+        mo_seeds = list(range(seeds)) if isinstance(seeds, int) else seeds
+        found = evaluate_mo(agents_of(args.policies), envs, mo_seeds, args.references, args.out)
         print(found.table())
         print(f'score.json (its "mo" section), mo_episodes.csv and Pareto plots written to {args.out}/')
         return
-    result = evaluate(agents, envs, seeds=_seed_list(args.seeds), references=args.references, out=args.out)
+    result = evaluate(agents, envs, seeds=seeds, references=args.references, out=args.out)
     print(result.table())
     print(f"score.json, CSVs, figures and report.md written to {args.out}/")
 
@@ -289,6 +300,7 @@ def _command(sub: Any, name: str, text: str, run: Callable[[argparse.Namespace],
 
 
 def _parser() -> argparse.ArgumentParser:
+    from gym4real.core.rl.plan import SEEDS_HELP
     from gym4real.core.rl.presets import ALGOS
 
     p = argparse.ArgumentParser(
@@ -313,7 +325,9 @@ def _parser() -> argparse.ArgumentParser:
     bench.add_argument("--episodes", default="test", help='"test" (the paper protocol, default) or a number')
     bench.add_argument("--seed", type=int, default=0, help="seed of the first episode when --episodes is a number")
     bench.add_argument("--env", action="append", default=[], metavar="KEY=VALUE", help="make() keyword argument")
-    bench.add_argument("--out", help="folder of the table, CSV, JSON and figures (default results/<env>)")
+    bench.add_argument(
+        "--out", help="folder of the table, CSV, JSON and figures (default results/<env>: results/dam-v0)"
+    )
     bench.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_record(sub)
 
@@ -338,7 +352,11 @@ def _parser() -> argparse.ArgumentParser:
     train.add_argument("--algo", required=True, choices=ALGOS, help=f"algorithm: {', '.join(ALGOS)}")
     train.add_argument("--preset", default="paper", help="registered preset (paper, smoke) or a YAML file")
     train.add_argument("--seed", type=int, default=0, help="seed of the run (default 0)")
-    train.add_argument("--out", default=None, help="output folder (default runs/<env>/<algo>-<preset>-seed<S>)")
+    train.add_argument(
+        "--out",
+        default=None,
+        help="output folder (default runs/<env>/<algo>-<preset>-seed<S>: runs/dam-v0/ppo-paper-seed0)",
+    )
     train.add_argument("--quiet", action="store_true", help="no progress bar")
 
     rep = _command(
@@ -361,9 +379,9 @@ def _parser() -> argparse.ArgumentParser:
     )
     rep.add_argument(
         "--seeds",
-        type=int,
         default=None,
-        help="seeds per algorithm (default: the paper's, at least 5 at the paper budget; quick: 2 at most)",
+        metavar="N|a,b,c",
+        help=f"{SEEDS_HELP} (default: the paper's, at least 5 at the paper budget; quick: 2 at most)",
     )
     rep.add_argument("--out", default="results/reproduce", help="output folder; finished runs there are reused")
     rep.add_argument("--page", default=None, help="also write the results page and figures into this folder")
@@ -408,7 +426,11 @@ def _parser() -> argparse.ArgumentParser:
     )
     ev.add_argument("--envs", help="comma-separated environment ids")
     ev.add_argument("--all", action="store_true", help="every installed environment with a test protocol")
-    ev.add_argument("--seeds", help="training seeds, comma-separated (a factory is called as factory(env, seed=S))")
+    ev.add_argument(
+        "--seeds",
+        metavar="N|a,b,c",
+        help=f"your agent's training seeds: {SEEDS_HELP} (a factory is called as factory(env, seed=S))",
+    )
     ev.add_argument("--references", help="folder of reference files to use instead of those the domains ship")
     ev.add_argument(
         "--mo",

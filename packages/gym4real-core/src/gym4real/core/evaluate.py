@@ -31,7 +31,8 @@ from gym4real.core.errors import ConfigError, PolicyError
 from gym4real.core.policies import baseline_names, build_policy, is_user_object, make_policy, user_policy
 from gym4real.core.reference import check_fingerprint, fingerprint, load_reference
 from gym4real.core.registry import list_envs, load_object, registry
-from gym4real.core.rl.plan import slug
+from gym4real.core.rl.plan import SeedRequest, slug
+from gym4real.core.rl.plan import seeds as plan_seeds
 
 PolicyRef = str | Callable[..., Any]
 #: What ``evaluate`` takes per agent: a policy string or factory for every env (``{env}``/``{seed}`` filled in a
@@ -343,7 +344,7 @@ def _reference_note(env_id: str, references: str | Path | None) -> str:
 def evaluate(
     policies: Mapping[str, Agent],
     envs: str | Sequence[str] = "all",
-    seeds: Sequence[int] | None = None,
+    seeds: SeedRequest = None,
     references: str | Path | None = None,
     out: str | Path | None = None,
 ) -> Evaluation:
@@ -358,7 +359,9 @@ def evaluate(
             replication, as in the reference runs. Empty: only the reference agents are scored (their suite
             scores, for a results page).
         envs: ``"all"`` (every installed environment with a test protocol) or env ids.
-        seeds: The training seeds (labels of the runs; a single string or factory is built once per seed).
+        seeds: The training seeds (labels of the runs; a single string or factory is built once per seed): a
+            number N, the first N seeds of each environment's plan, as ``gym4real reproduce --seeds N`` trains
+            them (the paper's, then 0, 1, ...), or the seeds themselves.
         references: A folder of reference files to use instead of those the domains ship.
         out: If given, write ``score.json``, the CSVs, figures and ``report.md`` there.
 
@@ -367,11 +370,13 @@ def evaluate(
         PolicyError: A policy that cannot be built or acts out of its space.
         ConfigError: An agent named like a reference policy, or policies and seeds that do not match.
     """
-    seed_list = list(seeds) if seeds is not None else None
-    if seed_list is not None and len(set(seed_list)) != len(seed_list):
-        raise ConfigError(f"seeds {seed_list} repeat a seed; each training seed is one run")
+    if isinstance(seeds, int) and seeds < 1:
+        raise ConfigError(f"seeds must be at least 1, not {seeds}")
+    if seeds is not None and not isinstance(seeds, int) and len(set(seeds)) != len(list(seeds)):
+        raise ConfigError(f"seeds {list(seeds)} repeat a seed; each training seed is one run")
     evaluation = Evaluation(list(policies))
     for env_id in _env_ids(envs):
+        seed_list = None if seeds is None else plan_seeds(env_id, "paper", seeds)
         spec = protocol(env_id)
         kwargs = dict(spec.env_kwargs)
         plan = load_object(spec.protocol)(dict(kwargs))

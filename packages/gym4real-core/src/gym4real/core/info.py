@@ -77,7 +77,8 @@ def space_text(space: Any) -> str:
     import gymnasium as gym
 
     if isinstance(space, gym.spaces.Box) and space.shape and int(np.prod(space.shape)) > 6:
-        varied = "; bounds vary by entry" if np.ptp(space.low) > 0 or np.ptp(space.high) > 0 else ""
+        same = all(np.all(bound == bound.flat[0]) for bound in (space.low, space.high))  # infinite bounds too
+        varied = "" if same else "; bounds vary by entry"
         return f"Box({space.low.min():g}..{space.high.max():g}, {space.shape}, {space.dtype}{varied})"
     return str(space)
 

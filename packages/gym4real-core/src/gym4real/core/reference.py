@@ -62,7 +62,7 @@ class Reference:
         fingerprint: The protocol the scores were measured on (:func:`fingerprint`).
         budget: The ``gym4real reproduce`` budget of the runs (``paper``).
         manifest: The manifest of the run that measured them.
-        source: Where the files were read from.
+        source: Where the files were read from (shipped ones: the domain package and the file).
     """
 
     env_id: str
@@ -151,7 +151,7 @@ def load_reference(env_id: str, folder: str | Path | None = None) -> Reference |
         meta["fingerprint"],
         meta.get("budget", "paper"),
         meta.get("manifest", {}),
-        str(table),
+        str(table) if folder is not None else f"{domain_package(env_id)}: {FOLDER}/{table.name}",  # no local path
     )
 
 

@@ -24,7 +24,10 @@ unit weights give the scalar env's reward)::
 
     import numpy as np
     from mo_gymnasium.wrappers import LinearReward
+    from ray.rllib.algorithms.ppo import PPOConfig
     from ray.tune.registry import register_env
+
+    from gym4real.integrations.rllib import make_env
 
     weights = np.array([1.0, 1.0, 1.0, 0.5, 1.0])  # deficit, overflow, starving, wasted_water, clipping
     register_env("dam-weighted", lambda config: LinearReward(make_env("gym4real/dam-mo-v0", config), weights))

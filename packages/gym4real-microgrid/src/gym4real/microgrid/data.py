@@ -11,6 +11,7 @@ and what was expected.
 from __future__ import annotations
 
 import functools
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -24,6 +25,49 @@ TRAIN_DEMAND = "demand/train"
 #: Where the synthetic stand-in for the training households lies under a data folder
 #: (:mod:`gym4real.microgrid.standin` writes it).
 STAND_IN = "microgrid/demand/profiles_train_standin.csv"
+#: Households of the paper's training file (``profiles_train.csv``).
+PAPER_HOUSEHOLDS = 370
+#: Seconds to synthesize one stand-in household with one job on a core of its own (:mod:`gym4real.microgrid.standin`):
+#: its CPU time, 21.2 s measured for one household on a 2-core machine (richardsonpy 0.2.3; 23 s per household
+#: in a 370-household run with two jobs). A loaded machine takes longer: the job gets a share of a core.
+SECONDS_PER_HOUSEHOLD = 21.0
+
+
+class StandInWarning(UserWarning):
+    """Training reads a stand-in of fewer households than the paper's training file."""
+
+
+def synthesis_time(households: int = PAPER_HOUSEHOLDS, jobs: int = 1) -> str:
+    """``about 80 min``: the expected time of ``gym4real data synthesize microgrid`` for ``households``."""
+    seconds = -(-households // max(1, jobs)) * SECONDS_PER_HOUSEHOLD
+    return f"about {seconds:.0f} s" if seconds < 90 else f"about {seconds / 60:.0f} min"
+
+
+def _synthesize_command() -> str:
+    return (
+        f"`gym4real data synthesize microgrid` ({synthesis_time()} for the {PAPER_HOUSEHOLDS} households with one "
+        f"job, less with `--jobs N`; `pip install richardsonpy` first)"
+    )
+
+
+_warned: set[Path] = set()
+
+
+def warn_if_fewer_households(path: Path) -> None:
+    """Warn once per file when the stand-in that training reads holds fewer households than the paper's file."""
+    if path in _warned:
+        return
+    _warned.add(path)
+    with path.open(encoding="utf-8") as f:
+        count = sum(1 for name in f.readline().strip().split(",") if name != "delta_time")
+    if count < PAPER_HOUSEHOLDS:
+        warnings.warn(
+            f"training on {count} stand-in households (`{path}`), fewer than the {PAPER_HOUSEHOLDS} of the paper's "
+            f"training file: results are not comparable with a full stand-in; {_synthesize_command()} writes all "
+            f"{PAPER_HOUSEHOLDS}",
+            StandInWarning,
+            stacklevel=3,
+        )
 
 
 #: Unit and plausible range ``(low, high, unit)`` of every value column (demand: each household column).
@@ -60,7 +104,7 @@ def training_demand(data_dir: str | Path | None) -> tuple[Path, str]:
     for the stand-in written by ``gym4real data synthesize microgrid`` (:mod:`gym4real.microgrid.standin`).
 
     Raises:
-        DataFileError: Neither is found; the message gives both fixes.
+        DataFileError: Neither is found; the message gives both fixes (and how long the stand-in takes).
     """
     from gym4real.core.datasets import find, find_stand_in
 
@@ -72,10 +116,9 @@ def training_demand(data_dir: str | Path | None) -> tuple[Path, str]:
         msg = (
             f"{exc}\nThe 370 training households (`profiles_train.csv`) are published upstream but were absent "
             "from the reference snapshot. Either place the file in a data folder "
-            "(`<GYM4REAL_DATA_DIR>/microgrid/demand/profiles_train.csv`), or write the synthetic stand-in with "
-            "`gym4real data synthesize microgrid` (Richardson load model calibrated to Italian households; "
-            '`pip install richardsonpy` first), or pass `data={"demand": "<path>.csv"}`; preset "default" or '
-            '"test" runs on the 2019 data.'
+            "(`<GYM4REAL_DATA_DIR>/microgrid/demand/profiles_train.csv`), or write the synthetic stand-in "
+            f"(Richardson load model calibrated to Italian households) with {_synthesize_command()}, or pass "
+            '`data={"demand": "<path>.csv"}`; preset "default" or "test" runs on the 2019 data.'
         )
         raise DataFileError(msg) from exc
 

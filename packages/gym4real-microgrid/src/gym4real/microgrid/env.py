@@ -18,7 +18,7 @@ from gym4real.core.errors import DataFileError
 from gym4real.core.perturbation import check_scales
 from gym4real.microgrid.battery import BatteryParams, BatteryTwin, TwinOptions, load_battery
 from gym4real.microgrid.config import MicrogridConfig
-from gym4real.microgrid.data import TRAIN_DEMAND, World, data_path, training_demand
+from gym4real.microgrid.data import TRAIN_DEMAND, World, data_path, training_demand, warn_if_fewer_households
 
 if TYPE_CHECKING:
     from gym4real.microgrid.rendering import MicrogridRenderer
@@ -277,6 +277,8 @@ class MicrogridEnv(gym.Env[np.ndarray, np.ndarray]):
                 continue
             if ref == TRAIN_DEMAND:
                 path, self.demand_source = training_demand(cfg.data_dir)
+                if self.demand_source == "stand-in":
+                    warn_if_fewer_households(path)
                 paths.append(path)
                 continue
             paths.append(data_path(ref, cfg.data_dir))

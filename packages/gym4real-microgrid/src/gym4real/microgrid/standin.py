@@ -41,10 +41,17 @@ from typing import Any
 import numpy as np
 
 from gym4real.core.errors import DataFileError, Gym4RealError
-from gym4real.microgrid.data import DOMAIN, STAND_IN, TRAIN_DEMAND, training_demand
+from gym4real.microgrid.data import (
+    DOMAIN,
+    PAPER_HOUSEHOLDS,
+    STAND_IN,
+    TRAIN_DEMAND,
+    synthesis_time,
+    training_demand,
+)
 
 #: Households of the paper's training file.
-HOUSEHOLDS = 370
+HOUSEHOLDS = PAPER_HOUSEHOLDS
 #: Default seed of the stand-in (the file's provenance records it).
 SEED = 2015
 #: Path of the stand-in under a data folder (beside the real ``demand/profiles_train.csv``).
@@ -80,6 +87,16 @@ def _richardson() -> Any:
             "richardsonpy` (GPL-3.0, needed only by this command), then run it again"
         ) from exc
     return richardsonpy
+
+
+def check_tools() -> None:
+    """Refuse, before anything is written, when the load model is not installed (with its ``pip install``)."""
+    _richardson()
+
+
+def expected_time(households: int = HOUSEHOLDS, jobs: int = 1) -> str:
+    """``about 80 min``: how long :func:`synthesize` takes for ``households`` with ``jobs`` worker processes."""
+    return synthesis_time(households, jobs)
 
 
 def annual_targets() -> dict[int, float]:

@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from gym4real.core.errors import ConfigError, DataFileError, Gym4RealError
+from gym4real.wds.inp_check import check_network_text
 
 # EPANET 2.3 toolkit codes (epanet2_enums.h); identical in every 2.2+ build.
 NODECOUNT, LINKCOUNT, CONTROLCOUNT, RULECOUNT = 0, 2, 5, 6
@@ -492,8 +493,9 @@ class Engine:
         kind: ``auto``, ``owa-epanet`` or ``epyt``.
 
     Raises:
-        DataFileError: The file is missing, is not text (:func:`check_text`) or EPANET rejects it (EPANET's
-            messages, with line details).
+        DataFileError: The file is missing, is not text (:func:`check_text`), is cut short or holds a pump
+            EPANET cannot solve (:func:`~gym4real.wds.inp_check.check_network_text`), or EPANET rejects it
+            (EPANET's messages, with line details).
     """
 
     def __init__(self, inp: str | Path, kind: str = "auto") -> None:
@@ -508,6 +510,7 @@ class Engine:
             problem = "is a folder, not a file" if self.path.is_dir() else "does not exist"
             raise DataFileError(f"network file `{self.path}` {problem}; pass an EPANET `.inp` file as `network`")
         check_text(self.path)
+        check_network_text(self.path, self.path.read_text(encoding="utf-8-sig"))
         self._tmp: str | None = tempfile.mkdtemp(prefix="gym4real-wds-")
         report = Path(self._tmp) / "epanet.rpt"
         self.ph = self.tk.createproject()

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from gym4real.core.errors import Gym4RealError
-from gym4real.core.rl.plan import Item, check_request, plan, slug
+from gym4real.core.rl.plan import Item, SeedRequest, check_request, plan, slug
 from gym4real.core.rl.presets import load_preset
 from gym4real.core.rl.train import finished_run
 
@@ -114,7 +114,7 @@ def duration(seconds: float) -> str:
     return f"{seconds / 3600:.1f} h"
 
 
-def plan_report(env_ids: Sequence[str], budget: str, n_seeds: int | None, out: Path, jobs: int) -> str:
+def plan_report(env_ids: Sequence[str], budget: str, n_seeds: SeedRequest, out: Path, jobs: int) -> str:
     """The plan of ``gym4real reproduce`` with each run's estimated CPU time and the expected wall time."""
     check_request(env_ids, budget, n_seeds)
     lines = [f"{'run':44s} {'CPU time':>9s}  source"]

@@ -9,6 +9,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TypeAlias
 
 from gym4real.core.errors import ConfigError
 from gym4real.core.registry import env_spec, registry
@@ -21,15 +22,42 @@ BUDGETS = {"paper": "paper", "quick": "smoke"}
 DEFAULT_SEEDS = 5
 #: Seeds of the quick budget (the first of the paper's).
 QUICK_SEEDS = 2
+#: The training seeds of a request (``--seeds`` of ``reproduce`` and ``evaluate``): a number ``N``, the first N
+#: seeds of the plan (:func:`seeds`), or a list, exactly these seeds; None: the budget's default.
+SeedRequest: TypeAlias = int | Sequence[int] | None
+#: ``--seeds``, said once for every command that takes it.
+SEEDS_HELP = (
+    "N: the first N training seeds of the plan (the paper's, then 0, 1, ...); a,b,c: exactly these seeds "
+    "(one seed S: `S,`)"
+)
 
 
-def check_request(env_ids: Sequence[str], budget: str, n_seeds: int | None) -> None:
+def parse_seeds(text: str) -> int | list[int]:
+    """``--seeds``: ``N`` (a count) or ``a,b,c`` (these seeds; ``S,`` is the one seed S); see :data:`SeedRequest`.
+
+    Raises:
+        ConfigError: Text that is neither, with the two forms.
+    """
+    parts = [p.strip() for p in text.split(",")]
+    try:
+        values = [int(p) for p in parts if p]
+    except ValueError:
+        values = []
+    if not values or any(v < 0 for v in values) or any(not p for p in parts[:-1]):
+        raise ConfigError(
+            f"`--seeds {text}` is neither a number of seeds (`--seeds 5`: the first five of the plan) nor "
+            "comma-separated seeds (`--seeds 0,1,2`; one seed: `--seeds 7,`)"
+        )
+    return values[0] if len(parts) == 1 else values
+
+
+def check_request(env_ids: Sequence[str], budget: str, n_seeds: SeedRequest) -> None:
     """Refuse, before anything runs, what no environment of a request can run.
 
     Raises:
         EnvUnavailableError: An id that is not registered (a typo, a domain not installed), from
             :func:`~gym4real.core.registry.env_spec`: the nearest ids, or the ``pip install`` of the domain.
-        ConfigError: An unknown budget, or fewer than one seed.
+        ConfigError: An unknown budget, fewer than one seed, or a seed list that repeats a seed.
     """
     for env_id in env_ids:
         env_spec(env_id)
@@ -42,9 +70,15 @@ def _check_budget(budget: str) -> None:
         raise ConfigError(f"budget `{budget}` is not one of {sorted(BUDGETS)}")
 
 
-def _check_seed_count(n: int | None) -> None:
-    if n is not None and n < 1:
+def _check_seed_count(n: SeedRequest) -> None:
+    if isinstance(n, int) and n < 1:
         raise ConfigError(f"--seeds must be at least 1, not {n}")
+    if n is not None and not isinstance(n, int):
+        listed = list(n)
+        if not listed or len(set(listed)) != len(listed) or any(s < 0 for s in listed):
+            raise ConfigError(
+                f"--seeds {','.join(map(str, listed))}: name at least one seed, none twice, none negative"
+            )
 
 
 def slug(env_id: str) -> str:
@@ -65,15 +99,19 @@ def presets(env_id: str, budget: str) -> dict[str, str]:
     return found
 
 
-def seeds(env_id: str, budget: str, n: int | None = None) -> list[int]:
+def seeds(env_id: str, budget: str, n: SeedRequest = None) -> list[int]:
     """The training seeds: the paper's (from the ``paper`` budget's presets), then 0, 1, 2, ...
 
     Args:
         env_id: A registered id.
         budget: ``paper`` or ``quick``.
         n: How many (default: as many as the paper used, at least :data:`DEFAULT_SEEDS`; for ``quick``
-            the first :data:`QUICK_SEEDS` of the paper's, or of 0, 1, ... if it names none).
+            the first :data:`QUICK_SEEDS` of the paper's, or of 0, 1, ... if it names none), or a list:
+            exactly these seeds.
     """
+    if n is not None and not isinstance(n, int):
+        _check_seed_count(n)
+        return list(n)
     paper: list[int] = []
     for algo, preset in presets(env_id, "paper").items():
         for s in load_preset(env_id, algo, preset)["seeds"]:
@@ -97,7 +135,14 @@ class Item:
     folder: Path
 
 
-def plan(env_id: str, budget: str, n_seeds: int | None, out: Path) -> list[Item]:
+def seeds_flag(env_id: str, budget: str, run_seeds: Sequence[int]) -> str:
+    """The ``--seeds`` value that asks for ``run_seeds`` again: their number if they are the plan's first, else them."""
+    if list(run_seeds) == seeds(env_id, budget, len(run_seeds)):
+        return str(len(run_seeds))
+    return ",".join(map(str, run_seeds)) + ("," if len(run_seeds) == 1 else "")
+
+
+def plan(env_id: str, budget: str, n_seeds: SeedRequest, out: Path) -> list[Item]:
     """The training runs of ``env_id`` for ``budget``, in ``out/<env>/<budget>/runs/<algo>/seed<S>``."""
     algos = presets(env_id, budget)
     if not algos:

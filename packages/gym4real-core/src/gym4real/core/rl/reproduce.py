@@ -38,7 +38,7 @@ from gym4real.core import stats
 from gym4real.core.benchmark import BenchmarkResult, benchmark, protocol
 from gym4real.core.errors import Gym4RealError
 from gym4real.core.rl import analysis, provenance, workspace
-from gym4real.core.rl.plan import Item, check_request, plan, slug
+from gym4real.core.rl.plan import Item, SeedRequest, check_request, plan, seeds_flag, slug
 from gym4real.core.rl.progress import PlanProgress
 from gym4real.core.rl.runner import describe_error, train_plan
 from gym4real.core.rl.train import TrainingRun
@@ -230,7 +230,7 @@ def _shown(out: Path) -> str:
 def reproduce(
     env_ids: Sequence[str],
     budget: str = "paper",
-    n_seeds: int | None = None,
+    n_seeds: SeedRequest = None,
     out: str | Path = "results/reproduce",
     progress: bool = False,
     page: str | Path | None = None,
@@ -246,7 +246,8 @@ def reproduce(
     Args:
         env_ids: Registered ids.
         budget: ``paper`` or ``quick``.
-        n_seeds: Training seeds per algorithm (default: the paper's; see :func:`seeds`).
+        n_seeds: Training seeds per algorithm: how many (the plan's first), or which (default: the paper's;
+            see :func:`~gym4real.core.rl.plan.seeds`).
         out: Output folder (see the module's docstring for its layout).
         progress: One progress bar over the whole plan (training runs, then the tests of each env).
         page: Also write the results page and its figures into this folder (a docs folder).
@@ -282,8 +283,8 @@ def reproduce(
         try:
             if failed:
                 raise Gym4RealError(f"{len(failed)} training run(s) failed; first: {failed[0].error}")
-            n_seeds = len({i.seed for i in items})
-            command = f"gym4real reproduce {env_id} --budget {budget} --seeds {n_seeds} --out {_shown(out)}"
+            flag = seeds_flag(env_id, budget, list(dict.fromkeys(i.seed for i in items)))
+            command = f"gym4real reproduce {env_id} --budget {budget} --seeds {flag} --out {_shown(out)}"
             report = reproduce_env(env_id, budget, [o.run for o in mine if o.run is not None], out, command)
         except Exception as exc:  # one env's failure (missing data, a bug) must not stop the others
             errors[env_id] = describe_error(exc)

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from gym4real.core.errors import ConfigError
+from gym4real.core.rl.plan import slug
 from gym4real.core.rl.presets import is_preset_file, load_preset
 from gym4real.core.rl.progress import Progress
 
@@ -50,9 +51,9 @@ class TrainingRun:
 
 
 def default_out(env_id: str, algo: str, preset: str, seed: int) -> Path:
-    """``runs/<env>/<algo>-<preset>-seed<S>``."""
+    """``runs/<env>/<algo>-<preset>-seed<S>``, ``<env>`` the id's name (``dam-v0``), as ``{env}`` of ``evaluate``."""
     name = Path(preset).stem if is_preset_file(preset) else preset
-    return Path("runs") / env_id.replace("/", "_") / f"{algo}-{name}-seed{seed}"
+    return Path("runs") / slug(env_id) / f"{algo}-{name}-seed{seed}"
 
 
 #: The code version of a copy that is not a git checkout (wheels built from a commit and installed on a
