@@ -198,6 +198,8 @@ def mo_section(env_id: str) -> list[str]:
         "Fronts: " + "; ".join(f"`{s.name}`: {s.description}" for s in spec.sweeps) + ".",
     ]
     return lines
+
+
 #: What each figure of ``gym4real bench`` shows, before the run it comes from.
 FIGURE_WHAT = {
     "cumulative_reward.png": "Mean cumulative objective per {step_unit}, with its 95 % band",
