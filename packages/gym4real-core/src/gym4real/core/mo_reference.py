@@ -327,7 +327,7 @@ def reference_run_objectives(env_id: str, policy: str) -> np.ndarray | None:
     """
     import pandas as pd
 
-    from gym4real.core.reference import check_fingerprint, load_reference
+    from gym4real.core.reference import check_fingerprint, load_reference, reference_table
 
     base = base_env(env_id)
     reference = load_reference(base)
@@ -339,7 +339,8 @@ def reference_run_objectives(env_id: str, policy: str) -> np.ndarray | None:
         check_fingerprint(reference, fingerprint(base, env))
     finally:
         env.close()
-    frame = pd.read_csv(reference.source)
+    with reference_table(base).open() as handle:
+        frame = pd.read_csv(handle)
     rows = frame[(frame["policy"] == policy) & frame["seed"].isna()].sort_values("episode")
     spec = mo_spec(env_id)
     return np.array([spec.values(row) for row in rows.to_dict("records")])

@@ -21,6 +21,7 @@ import hashlib
 import json
 from dataclasses import dataclass, field
 from importlib import resources
+from importlib.resources.abc import Traversable
 from pathlib import Path
 from typing import Any
 
@@ -128,6 +129,15 @@ def domain_package(env_id: str) -> str:
     return ".".join(env_spec(env_id).entry_point.split(":")[0].split(".")[:2])
 
 
+def _folder(env_id: str, folder: str | Path | None) -> Traversable:
+    return Path(folder) if folder is not None else resources.files(domain_package(env_id)) / FOLDER
+
+
+def reference_table(env_id: str, folder: str | Path | None = None) -> Traversable:
+    """The reference table of ``env_id`` (``<name>.csv``): in ``folder``, else the one its domain ships."""
+    return _folder(env_id, folder) / f"{slug(env_id)}.csv"
+
+
 def load_reference(env_id: str, folder: str | Path | None = None) -> Reference | None:
     """The reference runs of ``env_id``, from its domain package or from ``folder``; None when there are none.
 
@@ -135,7 +145,7 @@ def load_reference(env_id: str, folder: str | Path | None = None) -> Reference |
         env_id: A registered id.
         folder: A folder holding ``<name>.csv`` and ``<name>.json`` (default: the domain's ``reference/``).
     """
-    base = Path(folder) if folder is not None else resources.files(domain_package(env_id)) / FOLDER
+    base = _folder(env_id, folder)
     table, record = base / f"{slug(env_id)}.csv", base / f"{slug(env_id)}.json"
     if not table.is_file():
         return None
