@@ -12,10 +12,11 @@ import pytest
 
 from gym4real.core.benchmark import run_episode
 from gym4real.core.errors import PolicyError
+from gym4real.core.policies import ConstantPolicy
 from gym4real.core.registry import registry
 from gym4real.microgrid import MicrogridEnv
-from gym4real.microgrid.battery import load_battery
-from gym4real.microgrid.hindsight import MicrogridHindsight, _bilinear, _episode_data
+from gym4real.microgrid.battery import BatteryTwin, load_battery
+from gym4real.microgrid.hindsight import MicrogridHindsight, _episode_data, _soc_table, _temperature_weights
 
 pytest.importorskip("numba")
 
@@ -48,20 +49,32 @@ def test_hindsight_is_registered_as_a_non_causal_baseline() -> None:
     assert "hindsight" not in registry().benchmarks[ENV_ID].rule_based
 
 
-def test_vectorised_lookup_is_the_tables_bilinear_interpolation() -> None:
-    grid = load_battery().grid
-    temps = np.array([-10.0, 0.0, 12.3, 25.0, 37.9, 60.0])
+def test_model_circuit_is_the_twins_at_rest() -> None:
+    """The DP's terminal voltage V(I) = ocv + slope I is the twin's at the same SoC and temperature."""
+    from gym4real.microgrid.hindsight_kernel import circuit
+
+    params = load_battery()
     socs = np.linspace(0.2, 1.0, 17)
-    looked_up = _bilinear(grid, temps, socs)
+    temps = np.array([263.15, 273.15, 285.45, 298.15, 311.05, 333.15])
+    table = _soc_table(params.grid, socs)
+    index, weight = _temperature_weights(params.grid, temps - 273.15)
+    twin = BatteryTwin(params)
     for a, temp in enumerate(temps):
-        for b, soc in enumerate(socs):
-            np.testing.assert_allclose(looked_up[:, a, b], grid.bilinear(temp, soc), rtol=1e-12)
+        for i, soc in enumerate(socs):
+            twin.reset(soc=soc, temperature=temp)
+            for current in (-40.0, 0.0, 25.0):
+                ocv, slope = circuit(table, index[a], weight[a], i, 3600.0)
+                assert ocv + slope * current == pytest.approx(
+                    twin.power_for_current(current, 3600.0) / current if current else twin.ocv, rel=1e-12
+                )
 
 
 def test_dynamic_programme_is_the_brute_force_optimum_of_its_model() -> None:
     """Every feasible grid path of six hours, scored by the model's equations written out here."""
+    from gym4real.microgrid.hindsight_kernel import circuit
+
     env = _afternoon(6)
-    planner = MicrogridHindsight(env)
+    planner = MicrogridHindsight(env, grid_step=0.005)
     data = _episode_data(env)
     assert (data["margin"] > 0).any() and (data["margin"] < 0).any()
     idle = planner._replay(np.full(7, env.battery.soc))
@@ -73,18 +86,19 @@ def test_dynamic_programme_is_the_brute_force_optimum_of_its_model() -> None:
     def reward(t: int, i: int, j: int) -> float | None:
         margin, ds = m.margin[t], socs[j] - socs[i]
         current = ds * m.charge[t]
-        power = (m.ocv[t, i] + m.slope[t, i] * current) * current
+        ocv, slope = circuit(m.table, m.temp_index[t], m.temp_weight[t], i, m.dt)
+        power = (ocv + slope * current) * current
         if not (0.0 <= power / margin <= 1.0 if margin else j == i):
             return None
-        if not p.current_min <= current <= p.current_max or current < -m.ocv[t, i] / (2 * m.slope[t, i]):
+        if not p.current_min <= current <= p.current_max or current < -ocv / (2 * slope):
             return None
         traded = margin - power
-        trading = m.hours * traded * (m.ask[t] if traded < 0 else m.bid[t])
+        trading = m.dt / 3600.0 * traded * (m.ask[t] if traded < 0 else m.bid[t])
         damage = m.cal_rate[t] * m.cal_soc[i, j] + m.cyc_rate[t] * abs(ds) * m.cyc_soc[i, j]
         return planner._trade_weight * trading - price * damage
 
     best, paths = -math.inf, 0
-    frontier = [((m.start,), 0.0)]
+    frontier: list[tuple[tuple[int, ...], float]] = [((m.start,), 0.0)]
     for t in range(m.margin.size):
         nxt = []
         for path, value in frontier:
@@ -138,7 +152,7 @@ def test_a_household_year_scores_above_the_rule_based_strategies_and_ppo() -> No
     planner = MicrogridHindsight(env)
     score = float(run_episode(env, planner, 1, {"profile": "371"}, objective=OBJECTIVE)["objective_rewards"].sum())
     for a in (0.0, 0.5, 1.0):
-        rule = run_episode(env, lambda obs, a=a: np.array([a], np.float32), 1, {"profile": "371"}, objective=OBJECTIVE)
+        rule = run_episode(env, ConstantPolicy(np.array([a], np.float32)), 1, {"profile": "371"}, objective=OBJECTIVE)
         assert score > float(rule["objective_rewards"].sum())
     with PUBLISHED.open() as f:
         ppo = [float(r["objective"]) for r in csv.DictReader(f) if r["policy"] == "ppo" and r["episode"] == "1"]

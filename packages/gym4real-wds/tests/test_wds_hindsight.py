@@ -76,7 +76,9 @@ def test_a_test_week_reaches_the_bound_above_the_rule_based_strategies_and_dqn()
     env = WDSEnv(preset="test")
     try:
         planner = WDSHindsight(env)
-        score = float(run_episode(env, planner, 1235, {"profile_index": 1}, objective=OBJECTIVE)["objective_rewards"].sum())
+        score = float(
+            run_episode(env, planner, 1235, {"profile_index": 1}, objective=OBJECTIVE)["objective_rewards"].sum()
+        )
         assert score == pytest.approx(168.0, abs=1e-9)
         assert all(score > v for k, v in planner.candidates.items() if k != "search")  # p78, p79, the tank-level rule
         with PUBLISHED.open() as f:

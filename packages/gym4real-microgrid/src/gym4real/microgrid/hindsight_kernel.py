@@ -31,6 +31,22 @@ def transition(
 
 
 @njit(cache=True)
+def circuit(table: np.ndarray, index: int, weight: float, i: int, dt: float) -> tuple[float, float]:
+    """The terminal voltage ``ocv + slope * I`` at rest at grid SoC ``i`` (the twin's ``V(I) = a + b I``).
+
+    ``table[p, k, i]`` holds R0, R1, C and OCV (``p``) at the lookup table's ``k``-th temperature and the
+    grid's ``i``-th SoC; the hour's temperature lies ``weight`` of the way from table temperature ``index``
+    to the next.
+    """
+    r0 = table[0, index, i] + weight * (table[0, index + 1, i] - table[0, index, i])
+    r1 = table[1, index, i] + weight * (table[1, index + 1, i] - table[1, index, i])
+    c = table[2, index, i] + weight * (table[2, index + 1, i] - table[2, index, i])
+    ocv = table[3, index, i] + weight * (table[3, index + 1, i] - table[3, index, i])
+    den = 1.0 / dt + 1.0 / (r1 * c)
+    return ocv, r0 + 1.0 / c / den
+
+
+@njit(cache=True)
 def _feasible(power: float, current: float, margin: float, ocv: float, slope: float, limits: np.ndarray) -> bool:
     """Whether a = power / margin lies in [0, 1] and the pack's current and power bounds hold."""
     i_min, i_max, p_min, p_max = limits[0], limits[1], limits[2], limits[3]
@@ -46,10 +62,11 @@ def solve(
     margin: np.ndarray,
     ask: np.ndarray,
     bid: np.ndarray,
-    hours: float,
+    dt: float,
     charge: np.ndarray,
-    ocv: np.ndarray,
-    slope: np.ndarray,
+    table: np.ndarray,
+    temp_index: np.ndarray,
+    temp_weight: np.ndarray,
     limits: np.ndarray,
     trade_weight: float,
     price: float,
@@ -64,21 +81,22 @@ def solve(
     deficit only downwards, never when the margin is zero (``a = power / margin`` in [0, 1]). Its reward is
     ``trade_weight * trading - price * damage`` with the damage
     ``cal_rate[t] * cal_soc[i, j] + cyc_rate[t] * |socs[j] - socs[i]| * cyc_soc[i, j]`` (calendar aging, and
-    cyclic aging priced per unit of SoC moved). ``ocv[t, i]`` and ``slope[t, i]`` give the terminal voltage
-    ``ocv + slope * I`` at ``socs[i]``; ``limits`` holds the pack's current and power bounds
-    ``(i_min, i_max, p_min, p_max)``.
+    cyclic aging priced per unit of SoC moved). :func:`circuit` gives the terminal voltage at ``socs[i]``
+    and hour ``t``'s temperature (``temp_index[t]``, ``temp_weight[t]``); ``dt`` is the hour in seconds;
+    ``limits`` holds the pack's current and power bounds ``(i_min, i_max, p_min, p_max)``.
 
     Returns:
         The optimal path (grid indices, ``len(margin) + 1``) and its value.
     """
     n_steps, n = margin.size, socs.size
+    hours = dt / 3600.0
     value = np.zeros(n)
     nxt = np.empty(n)
     choice = np.empty((n_steps, n), dtype=np.int32)
     for t in range(n_steps - 1, -1, -1):
         m = margin[t]
         for i in range(n):
-            o, s = ocv[t, i], slope[t, i]
+            o, s = circuit(table, temp_index[t], temp_weight[t], i, dt)
             _, _, trading = transition(0.0, m, ask[t], bid[t], hours, charge[t], o, s)
             best = trade_weight * trading - price * cal_rate[t] * cal_soc[i, i] + value[i]
             arg = i
@@ -112,10 +130,11 @@ def totals(
     margin: np.ndarray,
     ask: np.ndarray,
     bid: np.ndarray,
-    hours: float,
+    dt: float,
     charge: np.ndarray,
-    ocv: np.ndarray,
-    slope: np.ndarray,
+    table: np.ndarray,
+    temp_index: np.ndarray,
+    temp_weight: np.ndarray,
     cal_rate: np.ndarray,
     cal_soc: np.ndarray,
     cyc_rate: np.ndarray,
@@ -126,7 +145,8 @@ def totals(
     for t in range(margin.size):
         i, j = path[t], path[t + 1]
         ds = socs[j] - socs[i]
-        _, _, trading = transition(ds, margin[t], ask[t], bid[t], hours, charge[t], ocv[t, i], slope[t, i])
+        o, s = circuit(table, temp_index[t], temp_weight[t], i, dt)
+        _, _, trading = transition(ds, margin[t], ask[t], bid[t], dt / 3600.0, charge[t], o, s)
         trading_sum += trading
         cal += cal_rate[t] * cal_soc[i, j]
         cyc += cyc_rate[t] * math.fabs(ds) * cyc_soc[i, j]

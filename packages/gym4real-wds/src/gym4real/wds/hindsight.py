@@ -27,6 +27,7 @@ import gymnasium as gym
 import numpy as np
 
 from gym4real.core.errors import PolicyError
+from gym4real.core.policies import ConstantPolicy
 from gym4real.wds import engine as en
 from gym4real.wds.baselines import TankLevelRule
 from gym4real.wds.env import WDSEnv
@@ -141,7 +142,7 @@ class WDSHindsight:
     def _search(self) -> tuple[tuple[int, ...], float]:
         """The beam search: the best schedule and its return in the search."""
         env = self.env
-        n_actions = int(env.action_space.n)
+        n_actions = 2 ** len(env.network.pump_ids)
         sims = self._pool(self.width * n_actions)
         threshold = env._ovf_start
         low = env.network.tank_min_level
@@ -175,7 +176,7 @@ class WDSHindsight:
         rules: dict[str, Callable[[np.ndarray], int]] = {}
         for k, pump in enumerate(env.network.pump_ids):
             action = 1 << (n_pumps - 1 - k)
-            rules[pump] = lambda obs, a=action: a
+            rules[pump] = ConstantPolicy(action)
         if env.pump_rules:
             rule = TankLevelRule(env)
             rules["tank-level rule"] = rule
