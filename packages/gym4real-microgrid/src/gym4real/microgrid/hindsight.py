@@ -179,9 +179,10 @@ class MicrogridHindsight:
         return env._weights[1] * env._deg_per_soh * slope
 
     def _initial_cyclic_rate(self) -> float:
-        """Damage per unit of SoC moved in full cycles of depth 0.5 at the reference SoC and temperature."""
+        """Damage per unit of SoC moved in full cycles of depth 0.5 (each moves the SoC by 1) at the reference."""
         a = self.env.battery.params.aging
-        return a.cycle_damage(0.5, a.soc_ref, 1.0, a.temp_ref) / 1.0
+        depth = 0.5
+        return a.cycle_damage(depth, a.soc_ref, 1.0, a.temp_ref) / (2.0 * depth)
 
     def _stress(self, temperature: np.ndarray, mid: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Calendar damage per hour (at SoC stress 1), SoC stress of calendar and of cyclic aging on ``mid``."""
