@@ -107,10 +107,18 @@ def gym4real_register_datasets() -> list[DatasetSpec]:
 
 @hookimpl
 def gym4real_register_baselines() -> list[BaselineSpec]:
-    """Random, only-market, battery-first and 50-50."""
+    """Random, only-market, battery-first, 50-50 and the non-causal hindsight planner."""
     return [
         BaselineSpec(ENV_ID, "random", "gym4real.core.policies:random_policy", "uniform random fraction"),
         *(BaselineSpec(ENV_ID, name, f"gym4real.microgrid.baselines:{name}", text) for name, text in BASELINES.items()),
+        BaselineSpec(
+            ENV_ID,
+            "hindsight",
+            "gym4real.microgrid.hindsight:hindsight",
+            "non-causal upper reference: knows the household-year's demand, PV, prices and weather, plans the SoC "
+            "by dynamic programming, replayed through the twin",
+            causal=False,
+        ),
     ]
 
 

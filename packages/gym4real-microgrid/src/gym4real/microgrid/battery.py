@@ -576,10 +576,18 @@ class BatteryTwin:
         The power that produces this current at the new terminal voltage is applied through :meth:`step`
         (with the same limits). Returns the applied power (W).
         """
+        return self.step(self.power_for_current(current, dt), dt, t_amb)
+
+    def power_for_current(self, current: float, dt: float) -> float:
+        """The terminal power (W) that drives ``current`` A over a step of ``dt`` s from the present state.
+
+        With ``consistent_current`` it is ``V(I) I`` at the step's new terminal voltage (what :meth:`step`
+        inverts); otherwise the reference's ``V_previous I``. The power is not clipped to the limits.
+        """
         if not self.options.consistent_current:
-            return self.step(self.voltage * current, dt, t_amb)
+            return self.voltage * current
         *_, a, b = self._circuit(dt)
-        return self.step((a + b * current) * current, dt, t_amb)
+        return (a + b * current) * current
 
     def snapshot(self) -> dict[str, float]:
         """The state as a dict of floats (for ``info``)."""

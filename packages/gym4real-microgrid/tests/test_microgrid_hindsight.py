@@ -1,0 +1,165 @@
+"""The hindsight planner: its DP against brute force, its replay against the env, its score against the baselines."""
+
+from __future__ import annotations
+
+import csv
+import itertools
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gym4real.core.benchmark import run_episode
+from gym4real.core.errors import PolicyError
+from gym4real.core.policies import ConstantPolicy
+from gym4real.core.registry import registry
+from gym4real.microgrid import MicrogridEnv
+from gym4real.microgrid.battery import BatteryTwin, load_battery
+from gym4real.microgrid.hindsight import MicrogridHindsight, _episode_data, _soc_table, _temperature_weights
+
+pytest.importorskip("numba")
+
+ENV_ID = "gym4real/microgrid-v0"
+OBJECTIVE = ("trading", "degradation")
+#: 21 June 2019, 14:00: PV surplus for three hours, then a deficit (the net power changes sign).
+AFTERNOON = 24 * 172 + 14
+PUBLISHED = Path(__file__).resolve().parents[3] / "docs" / "results" / "microgrid-v0-paper" / "episodes.csv"
+
+
+def _afternoon(hours: int) -> MicrogridEnv:
+    env = MicrogridEnv(preset="test", max_steps=hours)
+    env.reset(seed=0, options={"profile": "375", "start": AFTERNOON})
+    return env
+
+
+def _objective(env: MicrogridEnv, actions: tuple[float, ...]) -> float:
+    env.reset(seed=0, options={"profile": "375", "start": AFTERNOON})
+    total = 0.0
+    for a in actions:
+        _, _, _, _, info = env.step(np.array([a], dtype=np.float32))
+        total += sum(info["reward_components"][k] for k in OBJECTIVE)
+    return total
+
+
+def test_hindsight_is_registered_as_a_non_causal_baseline() -> None:
+    spec = registry().baselines[ENV_ID]["hindsight"]
+    assert spec.causal is False
+    assert all(s.causal for name, s in registry().baselines[ENV_ID].items() if name != "hindsight")
+    assert "hindsight" not in registry().benchmarks[ENV_ID].rule_based
+
+
+def test_model_circuit_is_the_twins_at_rest() -> None:
+    """The DP's terminal voltage V(I) = ocv + slope I is the twin's at the same SoC and temperature."""
+    from gym4real.microgrid.hindsight_kernel import circuit
+
+    params = load_battery()
+    socs = np.linspace(0.2, 1.0, 17)
+    temps = np.array([263.15, 273.15, 285.45, 298.15, 311.05, 333.15])
+    table = _soc_table(params.grid, socs)
+    index, weight = _temperature_weights(params.grid, temps - 273.15)
+    twin = BatteryTwin(params)
+    for a, temp in enumerate(temps):
+        for i, soc in enumerate(socs):
+            twin.reset(soc=soc, temperature=temp)
+            for current in (-40.0, 0.0, 25.0):
+                ocv, slope = circuit(table, index[a], weight[a], i, 3600.0)
+                assert ocv + slope * current == pytest.approx(
+                    twin.power_for_current(current, 3600.0) / current if current else twin.ocv, rel=1e-12
+                )
+
+
+def test_dynamic_programme_is_the_brute_force_optimum_of_its_model() -> None:
+    """Every feasible grid path of six hours, scored by the model's equations written out here."""
+    from gym4real.microgrid.hindsight_kernel import circuit
+
+    env = _afternoon(6)
+    planner = MicrogridHindsight(env, grid_step=0.005)
+    data = _episode_data(env)
+    assert (data["margin"] > 0).any() and (data["margin"] < 0).any()
+    idle = planner._replay(np.full(7, env.battery.soc))
+    model = planner._model(data, idle, planner._initial_cyclic_rate())
+    price = planner._damage_price(idle.damage)
+    p = env.battery.params
+    m, socs = model, model.socs
+
+    def reward(t: int, i: int, j: int) -> float | None:
+        margin, ds = m.margin[t], socs[j] - socs[i]
+        current = ds * m.charge[t]
+        ocv, slope = circuit(m.table, m.temp_index[t], m.temp_weight[t], i, m.dt)
+        power = (ocv + slope * current) * current
+        if not (0.0 <= power / margin <= 1.0 if margin else j == i):
+            return None
+        if not p.current_min <= current <= p.current_max or current < -ocv / (2 * slope):
+            return None
+        traded = margin - power
+        trading = m.dt / 3600.0 * traded * (m.ask[t] if traded < 0 else m.bid[t])
+        damage = m.cal_rate[t] * m.cal_soc[i, j] + m.cyc_rate[t] * abs(ds) * m.cyc_soc[i, j]
+        return planner._trade_weight * trading - price * damage
+
+    best, paths = -math.inf, 0
+    frontier: list[tuple[tuple[int, ...], float]] = [((m.start,), 0.0)]
+    for t in range(m.margin.size):
+        nxt = []
+        for path, value in frontier:
+            for j in range(socs.size):
+                r = reward(t, path[-1], j)
+                if r is not None:
+                    nxt.append(((*path, j), value + r))
+        frontier = nxt
+    for _, value in frontier:
+        best = max(best, value)
+        paths += 1
+    assert paths > 100  # the charging hours offer real choices
+    targets, _ = planner._solve(model, price)
+    path = np.rint((targets - socs[0]) / planner.grid_step).astype(int)
+    dp_value = sum(reward(t, path[t], path[t + 1]) for t in range(m.margin.size))  # type: ignore[misc]
+    assert dp_value == pytest.approx(best, rel=1e-12, abs=1e-15)
+    assert np.ptp(targets) > 0  # the optimum of the model uses the battery
+
+
+def test_replayed_objective_is_the_env_score_and_planning_leaves_the_env_alone() -> None:
+    env = MicrogridEnv(preset="test", max_steps=24 * 7)
+    planner = MicrogridHindsight(env)
+    run = run_episode(env, planner, 5, {"profile": "375", "start": 24 * 170}, objective=OBJECTIVE)
+    score = float(run["objective_rewards"].sum())
+    assert score == pytest.approx(planner.replayed_objective, rel=1e-12)
+    assert math.isfinite(planner.planned_objective) and planner.gap == pytest.approx(
+        planner.planned_objective - score, rel=1e-9
+    )
+    idle = planner.history[0]
+    assert idle.price == 0.0
+    only_market = run_episode(env, lambda obs: np.zeros(1, np.float32), 5, {"profile": "375", "start": 24 * 170})
+    assert idle.replayed == pytest.approx(float(only_market["rewards"].sum()), rel=1e-12)
+    assert score >= idle.replayed
+
+
+def test_planner_is_near_the_twins_brute_force_optimum_on_an_afternoon() -> None:
+    """All 729 schedules of {0, 1/2, 1} over six hours through the env: the planner is within 1 % of the best."""
+    env = _afternoon(6)
+    planner = MicrogridHindsight(env)
+    score = float(run_episode(env, planner, 0, {"profile": "375", "start": AFTERNOON}, objective=OBJECTIVE)[
+        "objective_rewards"
+    ].sum())  # fmt: skip
+    brute = max(_objective(env, seq) for seq in itertools.product((0.0, 0.5, 1.0), repeat=6))
+    assert score >= _objective(env, (0.0,) * 6)
+    assert score >= brute - 0.01 * abs(brute)
+
+
+@pytest.mark.slow
+def test_a_household_year_scores_above_the_rule_based_strategies_and_ppo() -> None:
+    env = MicrogridEnv(preset="test")
+    planner = MicrogridHindsight(env)
+    score = float(run_episode(env, planner, 1, {"profile": "371"}, objective=OBJECTIVE)["objective_rewards"].sum())
+    for a in (0.0, 0.5, 1.0):
+        rule = run_episode(env, ConstantPolicy(np.array([a], np.float32)), 1, {"profile": "371"}, objective=OBJECTIVE)
+        assert score > float(rule["objective_rewards"].sum())
+    with PUBLISHED.open() as f:
+        ppo = [float(r["objective"]) for r in csv.DictReader(f) if r["policy"] == "ppo" and r["episode"] == "1"]
+    assert ppo and score > max(ppo)
+    assert abs(planner.gap) < 0.001 * abs(score)  # the model's year is the twin's to 0.1 %
+
+
+def test_refuses_multi_hour_decisions() -> None:
+    with pytest.raises(PolicyError, match="decision_interval=1"):
+        MicrogridHindsight(MicrogridEnv(preset="test", decision_interval=4))
