@@ -81,6 +81,7 @@ class BenchmarkResult:
     objective: tuple[str, ...] = ()
     step_unit: str = "step"
     objectives: tuple[str, ...] = ()  # a vector-reward id's reward entries, in order: one table column each
+    planned: dict[str, list[float]] = field(default_factory=dict)  # a planner's own objective of each episode
 
     @property
     def labels(self) -> dict[str, str]:
@@ -136,6 +137,7 @@ class BenchmarkResult:
         if self.objectives:
             names = ", ".join(f"{o}_mean" for o in self.objectives)
             notes.append(f"{names}: mean per-episode sum of each entry of the vector reward")
+        notes += _planned_notes(self)
         fewest = int(frame["episodes"].min()) if len(frame) else 0
         if fewest < FEW_EPISODES:
             notes.append(
@@ -159,6 +161,8 @@ class BenchmarkResult:
                 }
                 row.update({c: v[i] for c, v in self.components[name].items()})
                 row.update({f"final_{k}": v[i] for k, v in self.final_info.get(name, {}).items()})
+                if name in self.planned:
+                    row["planned_objective"] = self.planned[name][i]
                 rows.append(row)
         return pd.DataFrame(rows)
 
@@ -180,6 +184,7 @@ class BenchmarkResult:
             "returns": self.returns,
             "components": self.components,
             "final_info": self.final_info,
+            "planned": self.planned,
         }
         written[2].write_text(json.dumps(record, indent=1))
         written += plots.save_figures(self, out)
@@ -187,6 +192,25 @@ class BenchmarkResult:
         if spec is not None and spec.figures:
             written += list(load_object(spec.figures)(self, out))
         return written
+
+
+def _planned_notes(result: BenchmarkResult) -> list[str]:
+    """Per planner (an upper reference): its planned objective beside the replayed one, and what it is."""
+    from gym4real.core.upper_reference import MARK, non_causal
+
+    notes = [
+        f"{result.labels[name]}: {MARK}, knows what no agent can know in advance (not a baseline to beat)"
+        for name in result.returns
+        if name in non_causal(result.env_id)
+    ]
+    for name, planned in result.planned.items():
+        replayed = result.objective_values(name)
+        gap = float(np.mean(np.asarray(replayed) - np.asarray(planned)))
+        notes.append(
+            f"{result.labels[name]}: planned objective mean {np.mean(planned):,.6g} (the planner's own estimate), "
+            f"replayed {np.mean(replayed):,.6g} (replayed - planned: {gap:+.4g} per episode)"
+        )
+    return notes
 
 
 def _jsonable(episode: Mapping[str, Any]) -> dict[str, Any]:
@@ -328,6 +352,9 @@ def benchmark(
             keys = sorted({k for r in runs for k in r["components"]})
             result.components[name] = {k: [r["components"].get(k, 0.0) for r in runs] for k in keys}
             result.final_info[name] = {k: [r["final"][k] for r in runs if k in r["final"]] for k in final_keys}
+            planned = getattr(policy, "planned_objectives", None)  # a planner's own estimate of each episode
+            if planned is not None and len(planned) >= len(plan):
+                result.planned[name] = [float(v) for v in planned[-len(plan) :]]
     finally:  # an error (a missing data file) is printed below the bar, not inside it
         if bar is not None:
             bar.close()

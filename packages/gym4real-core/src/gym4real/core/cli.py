@@ -235,7 +235,14 @@ def _cmd_evaluate(args: argparse.Namespace) -> None:
         name, ref = (name, ref) if sep and ":" not in name else (policy, policy)
         agents[name] = ref
     envs: str | list[str] = "all" if args.all else [e for e in args.envs.split(",") if e]
-    result = evaluate(agents, envs, seeds=_seed_list(args.seeds), references=args.references, out=args.out)
+    result = evaluate(
+        agents,
+        envs,
+        seeds=_seed_list(args.seeds),
+        references=args.references,
+        out=args.out,
+        allow_non_causal=args.allow_non_causal,
+    )
     print(result.table())
     print(f"score.json, CSVs, figures and report.md written to {args.out}/")
 
@@ -404,6 +411,11 @@ def _parser() -> argparse.ArgumentParser:
     ev.add_argument("--seeds", help="training seeds, comma-separated (a factory is called as factory(env, seed=S))")
     ev.add_argument("--references", help="folder of reference files to use instead of those the domains ship")
     ev.add_argument("--out", default=str(Path("results") / "evaluate"), help="output folder (default results/evaluate)")
+    ev.add_argument(
+        "--allow-non-causal",
+        action="store_true",
+        help="accept a non-causal upper reference (hindsight, which knows the episode's exogenous data) as an agent",
+    )
 
     dataset = sub.add_parser("dataset", help="offline-RL datasets", description="Offline-RL datasets.")
     dsub = dataset.add_subparsers(dest="dataset_command", required=True, metavar="COMMAND")

@@ -109,12 +109,14 @@ class BaselineSpec:
         entry_point: ``"module:factory"``; ``factory(env)`` returns a policy, a callable
             ``obs -> action`` that may also define ``reset(seed)`` (called at each episode start).
         description: One line on what the policy does.
+        causal: False for a non-causal upper reference (``hindsight``) that is handed the episode's exogenous data.
     """
 
     env_id: str
     name: str
     entry_point: str
     description: str = ""
+    causal: bool = True
 
     def __post_init__(self) -> None:
         _check(bool(_SNAKE.match(self.name)), f"baseline name `{self.name}` is not lower-case snake case")

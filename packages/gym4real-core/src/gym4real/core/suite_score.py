@@ -83,8 +83,11 @@ def scale(env_id: str, anchors: Mapping[str, float], rule_based: Sequence[str]) 
         anchors: Baseline -> IQM of its objective over the test episodes (``random`` among them).
         rule_based: The environment's rule-based baselines (``BenchmarkSpec.rule_based``).
     """
+    from gym4real.core.upper_reference import non_causal
+
     random = float(anchors.get("random", np.nan))
-    candidates = [b for b in rule_based if b in anchors]
+    upper = set(non_causal(env_id))  # an upper reference knows the future: never the 1 of the scale
+    candidates = [b for b in rule_based if b in anchors and b not in upper]
     if "random" not in anchors:
         return Scale(env_id, random, None, np.nan, "no `random` baseline was run")
     if not candidates:

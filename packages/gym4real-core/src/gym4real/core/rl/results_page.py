@@ -24,6 +24,7 @@ import pandas as pd
 from gym4real.core import stats
 from gym4real.core.rl import analysis
 from gym4real.core.rl.claims import RULES
+from gym4real.core.rl.headroom_page import headroom_table
 
 #: The name of a results folder: ``<env>-<budget>``.
 FOLDER = re.compile(r"^(?P<env>[a-z0-9-]+)-(?P<budget>paper|quick)$")
@@ -442,6 +443,7 @@ def write_page(out: Path, page: str | Path | None = None) -> Path:
         claims_table(claims, scales),
         "",
         *suite_scores(list(sections.values())),
+        *headroom_table(list(sections.values())),
     ]
     body: list[str] = []
     for folder in folders:
