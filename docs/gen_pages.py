@@ -124,10 +124,8 @@ def page(env_id: str, figures: Path | None, gif: tuple[Path, str, int] | None = 
     ]
     baselines = reg.baselines.get(env_id, {})
     lines += ["## Baselines", "", "| name | description |", "|---|---|"]
-    lines += [
-        f"| `{b.name}` | {b.description}{'' if b.causal else f' (**{MARK}**: see [How far from optimal?](../headroom.md))'} |"
-        for b in baselines.values()
-    ]
+    upper = f" (**{MARK}**: see [How far from optimal?](../headroom.md))"
+    lines += [f"| `{b.name}` | {b.description}{'' if b.causal else upper} |" for b in baselines.values()]
     bench = reg.benchmarks.get(env_id)
     if bench:
         lines += [

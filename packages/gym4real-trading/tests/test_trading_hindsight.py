@@ -45,6 +45,15 @@ def test_the_plan_is_the_best_of_every_action_sequence_stepped_through_the_env(f
         assert policy.planned_objectives[-1] == pytest.approx(total, rel=1e-12, abs=1e-9)
 
 
+def _objective(seq: tuple[int, ...], prices: np.ndarray, fee: float, close_new: bool) -> float:
+    """P&L minus fees of a position sequence, written out from the env's docstring."""
+    total, prev, before_last = 0.0, 0, 0
+    for k, pos in enumerate(seq):
+        total += 100_000.0 * pos * (prices[k + 1] - prices[k]) - fee * abs(pos - prev)
+        before_last, prev = prev, pos
+    return total - fee * abs(seq[-1] if close_new else before_last)
+
+
 def test_plan_day_against_brute_force_on_random_prices() -> None:
     rng = np.random.default_rng(3)
     for _ in range(50):
@@ -52,18 +61,9 @@ def test_plan_day_against_brute_force_on_random_prices() -> None:
         prices = 1.1 + np.cumsum(rng.normal(0, 1e-3, n + 1))
         fee, close_new = float(rng.uniform(0, 150)), bool(rng.integers(2))
         positions, value = plan_day(prices, 100_000.0, fee, close_new)
-
-        def objective(seq: tuple[int, ...]) -> float:
-            total, prev = 0.0, 0
-            for k, pos in enumerate(seq):
-                total += 100_000.0 * pos * (prices[k + 1] - prices[k]) - fee * abs(pos - prev)
-                prev_before = prev
-                prev = pos
-            return total - fee * abs(seq[-1] if close_new else prev_before)
-
-        best = max(objective(s) for s in itertools.product((-1, 0, 1), repeat=n))
+        best = max(_objective(s, prices, fee, close_new) for s in itertools.product((-1, 0, 1), repeat=n))
         assert value == pytest.approx(best, abs=1e-9)
-        assert objective(tuple(positions)) == pytest.approx(value, abs=1e-9)
+        assert _objective(tuple(positions), prices, fee, close_new) == pytest.approx(value, abs=1e-9)
 
 
 def test_plan_day_refuses_a_day_without_two_finite_prices() -> None:

@@ -405,7 +405,9 @@ def evaluate(
         registered = baseline_names(env_id)
         upper = [b for b in upper_reference.non_causal(env_id) if b not in scores]
         missing = [
-            b for b in dict.fromkeys(("random", *spec.policies)) if b in registered and b not in scores and b not in upper
+            b
+            for b in dict.fromkeys(("random", *spec.policies))
+            if b in registered and b not in scores and b not in upper
         ]
         if missing:
             result = benchmark(env_id, missing, episodes="test")

@@ -43,14 +43,16 @@ from gym4real.dam.lake import SECONDS_PER_DAY
 #: The planner's version in its cache keys: bump it when a change alters the plans.
 VERSION = "dam-dp-1"
 #: The default grid spacing of the lake level (m).
-STEP = 0.005
+STEP = 0.0025
 
 
 def _kernel() -> Any:
     try:
         from gym4real.dam import hindsight_kernel
     except ImportError:
-        raise ImportError("the dam's hindsight planner is compiled with numba: `pip install gym4real-dam[fast]`") from None
+        raise ImportError(
+            "the dam's hindsight planner is compiled with numba: `pip install gym4real-dam[fast]`"
+        ) from None
     return hindsight_kernel
 
 
@@ -133,7 +135,7 @@ class DamHindsight:
         start = lake.storage_to_level(c["storage"])
         drop = float(np.sum(exogenous[:, 3])) * SECONDS_PER_DAY / lake.surface
         low, high = lake.level_range(start, float(exogenous[:, 1].max()), drop)
-        points = int(math.ceil((high - low) / self.step)) + 2
+        points = math.ceil((high - low) / self.step) + 2
         return low, points
 
     def _candidates(self, c: dict[str, Any]) -> tuple[np.ndarray, np.ndarray]:
@@ -177,8 +179,9 @@ class DamHindsight:
         storage = c["storage"]
         planned = float(kernel._value(values[0], low, self.step, env_lake.storage_to_level(storage)))
         chosen, forward = [], 0.0
+        quantum = env_lake.surface * self.step / SECONDS_PER_DAY
         for t in range(exogenous.shape[0]):
-            options = decisions[t, : counts[t]]
+            options = self._forward_options(decisions[t, : counts[t]], storage, low, quantum, exogenous[t], c["box"])
             j = kernel.choose(
                 storage, t, values, low, self.step, options, exogenous, lake, c["evaporates"], substeps, costs
             )
@@ -190,6 +193,26 @@ class DamHindsight:
         return {"decisions": chosen, "planned": planned, "forward": forward, "grid": [low, self.step, points]}
 
 
+    def _forward_options(
+        self,
+        grid_options: np.ndarray,
+        storage: float,
+        low: float,
+        quantum: float,
+        day: np.ndarray,
+        box: tuple[float, float],
+    ) -> np.ndarray:
+        """A day's candidates from the exact (off-grid) storage: the grid's, and those landing on grid levels."""
+        _, inflow, min_flow, evaporation, _ = day
+        floor, top = min(max(box[0], min_flow), box[1]), box[1]
+        level = self.env.lake.storage_to_level(storage)
+        offset = (level - low) / self.step  # grid levels above the lowest, fractional
+        base = inflow - evaporation + (offset - math.floor(offset)) * quantum  # lands exactly on a grid level
+        k_low, k_high = math.ceil((base - top) / quantum), math.floor((base - floor) / quantum)
+        landing = base - np.arange(k_low, k_high + 1) * quantum
+        return np.unique(np.concatenate([grid_options, landing]))
+
+
 def hindsight(env: gym.Env[Any, Any]) -> DamHindsight:
-    """Baseline factory: the non-causal hindsight planner (dynamic programming over a 5 mm level grid)."""
+    """Baseline factory: the non-causal hindsight planner (dynamic programming over a 2.5 mm level grid)."""
     return DamHindsight(env)

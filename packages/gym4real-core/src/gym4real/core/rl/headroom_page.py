@@ -35,8 +35,9 @@ def headroom_table(sections: list[Section]) -> list[str]:
         name = env_id.split("/", 1)[-1]
         measured = [u for u in upper if u in scores]
         if not measured:
-            rows.append(f"| `{name}` | not measured in this section (`gym4real bench {env_id} --policies {upper[0]}`) "
-                        "| | | | |")
+            rows.append(
+                f"| `{name}` | not measured in this section (`gym4real bench {env_id} --policies {upper[0]}`) | | | | |"
+            )
             continue
         spec = protocol(env_id)
         anchors = {p: stats.iqm(m) for p, m in scores.items() if not seeds[p]}
