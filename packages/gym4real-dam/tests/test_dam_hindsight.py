@@ -9,6 +9,7 @@ import pandas as pd
 import pytest
 
 import gym4real
+from gym4real.core import stats
 from gym4real.dam.hindsight import DamHindsight
 
 pytest.importorskip("numba")
@@ -56,12 +57,14 @@ def test_the_plan_is_at_least_the_best_of_a_fine_brute_force_over_three_days(yea
     assert policy.forward_objectives[-1] == pytest.approx(replayed, rel=1e-12, abs=1e-9)
 
 
+@pytest.mark.slow
 def test_the_grid_is_fine_enough_on_a_test_year() -> None:
-    """Halving the grid spacing (5 mm -> 2.5 mm) changes the replayed objective by less than 0.5 %."""
+    """Halving the default grid spacing (2.5 mm -> 1.25 mm) changes the replayed objective by less than 0.5 %
+    (1974: the test year of the largest change measured, docs/headroom.md)."""
     env = gym.make(ENV, preset="test")
-    options = {"year": 1950}
+    options = {"year": 1974}
     coarse = _replay(env, DamHindsight(env, cache=False), options)
-    fine = _replay(env, DamHindsight(env, step=0.0025, cache=False), options)
+    fine = _replay(env, DamHindsight(env, step=0.00125, cache=False), options)
     assert abs(coarse - fine) <= 0.005 * abs(fine)
 
 
@@ -101,7 +104,7 @@ def test_hindsight_beats_the_rule_based_baselines_and_the_published_agent_on_the
     """Not exact (a grid), so on the IQM of the 13 test years: at least every rule-based baseline's and
     every published PPO seed's. Plans come from the user cache after the first run (``bench`` fills it)."""
     result = gym4real.benchmark(ENV, ["hindsight"], "test")
-    upper = gym4real.core.stats.iqm(result.objective_values("hindsight"))
+    upper = stats.iqm(result.objective_values("hindsight"))
     published = pd.read_csv(PAPER)
     for (policy, seed), rows in published.groupby(["policy", published["seed"].fillna(-1)]):
-        assert upper >= gym4real.core.stats.iqm(rows.sort_values("episode")["objective"]), (policy, seed)
+        assert upper >= stats.iqm(rows.sort_values("episode")["objective"]), (policy, seed)
