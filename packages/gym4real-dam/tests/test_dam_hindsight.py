@@ -59,13 +59,14 @@ def test_the_plan_is_at_least_the_best_of_a_fine_brute_force_over_three_days(yea
 
 @pytest.mark.slow
 def test_the_grid_is_fine_enough_on_a_test_year() -> None:
-    """Halving the default grid spacing (2.5 mm -> 1.25 mm) changes the replayed objective by less than 0.5 %
-    (1974: the test year of the largest change measured, docs/headroom.md)."""
+    """Halving the default grid spacing (2.5 mm -> 1.25 mm) changes a year's replayed objective by at most
+    0.6 %: 2010, the test year of the largest change measured (0.55 %; the 13-year IQM moves by less than
+    0.5 %, docs/headroom.md)."""
     env = gym.make(ENV, preset="test")
-    options = {"year": 1974}
+    options = {"year": 2010}
     coarse = _replay(env, DamHindsight(env, cache=False), options)
     fine = _replay(env, DamHindsight(env, step=0.00125, cache=False), options)
-    assert abs(coarse - fine) <= 0.005 * abs(fine)
+    assert abs(coarse - fine) <= 0.006 * abs(fine)
 
 
 def test_the_replay_scores_what_the_forward_pass_planned_and_the_estimate_is_close() -> None:
