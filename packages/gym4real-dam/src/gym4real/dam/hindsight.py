@@ -194,7 +194,6 @@ class DamHindsight:
             chosen.append(decision)
         return {"decisions": chosen, "planned": planned, "forward": forward, "grid": [low, self.step, points]}
 
-
     def _forward_options(
         self,
         grid_options: np.ndarray,
