@@ -104,3 +104,9 @@ def test_plan_cache_round_trip_and_a_damaged_file_is_ignored(tmp_path: Path) -> 
 def test_every_env_with_an_upper_reference_lists_it_among_its_baselines() -> None:
     for env_id in list_envs():
         assert set(non_causal(env_id)) <= set(gym4real.env_info(env_id).baselines)
+
+
+def test_evaluate_without_headroom_runs_no_upper_reference(tmp_path: Path) -> None:
+    evaluation = gym4real.evaluate({"mine": "flat"}, [TRADING], references=tmp_path, headroom=False)
+    assert "hindsight" not in evaluation.envs[TRADING].scores
+    assert evaluation.record("mine")["envs"][TRADING]["headroom"] == {}

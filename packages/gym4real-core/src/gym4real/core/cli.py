@@ -242,6 +242,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> None:
         references=args.references,
         out=args.out,
         allow_non_causal=args.allow_non_causal,
+        headroom=not args.no_headroom,
     )
     print(result.table())
     print(f"score.json, CSVs, figures and report.md written to {args.out}/")
@@ -415,6 +416,11 @@ def _parser() -> argparse.ArgumentParser:
         "--allow-non-causal",
         action="store_true",
         help="accept a non-causal upper reference (hindsight, which knows the episode's exogenous data) as an agent",
+    )
+    ev.add_argument(
+        "--no-headroom",
+        action="store_true",
+        help="do not run the upper references the reference runs lack (no shortfall from hindsight where missing)",
     )
 
     dataset = sub.add_parser("dataset", help="offline-RL datasets", description="Offline-RL datasets.")
