@@ -166,8 +166,8 @@ def headroom_section(env_id: str, figures: Path | None) -> list[str]:
         "",
         "## Headroom",
         "",
-        f"{', '.join(f'`{u}`' for u in upper)}: the {MARK}, handed each test episode's exogenous data; it bounds what "
-        f"any controller can score here (see [How far from optimal?](../headroom.md)). `{command}` measures it.",
+        f"{', '.join(f'`{u}`' for u in upper)}: the {MARK}, which knows what no agent can know in advance; it bounds "
+        f"what a controller can score here (see [How far from optimal?](../headroom.md)). `{command}` measures it.",
     ]
     summary = figures / env_id.replace("/", "_") / "summary.csv" if figures else None
     if summary is not None and summary.is_file():
