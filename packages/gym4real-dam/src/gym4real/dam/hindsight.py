@@ -24,7 +24,7 @@ the forward pass computed. ``planned_objectives`` holds the programme's own esti
 (interpolated on the grid) of each episode, beside the replayed score the protocol records.
 
 **Grid.** The default 2.5 mm grid: halving it to 1.25 mm changed the IQM of the replayed objective over the
-test years measured by 0.17 %, and each year's by at most 0.55 % (2010; docs/headroom.md tables the gaps,
+13 test years by 0.16 %, and each year's by at most 0.55 % (2010; docs/headroom.md tables the gaps,
 and a slow test checks that year);
 halving 5 mm to 2.5 mm changed 1950's by 0.57 %, so 5 mm is not fine enough. About 5 s of CPU
 per year (the 13 test years: about 64 s); plans are cached.
