@@ -37,6 +37,7 @@ import pandas as pd
 import gym4real
 from gym4real.core.registry import registry
 from gym4real.core.specs import FLAGS
+from gym4real.core.upper_reference import MARK, non_causal
 
 DOCS = Path(__file__).resolve().parent
 CORE = DOCS.parent / "packages" / "gym4real-core"
@@ -48,6 +49,7 @@ def best_baseline(env_id: str, figures: Path | None) -> str:
     reg = registry()
     bench = reg.benchmarks.get(env_id)
     names = list(bench.policies) if bench else sorted(reg.baselines.get(env_id, {}))
+    names = [n for n in names if n not in non_causal(env_id)]  # an upper reference knows the future
     candidates = [n for n in names if n != "random" and ":" not in n] or names
     summary = figures / env_id.replace("/", "_") / "summary.csv" if figures else None
     if summary is not None and summary.is_file():
@@ -126,7 +128,8 @@ def page(env_id: str, figures: Path | None, gif: tuple[Path, str, int] | None = 
     ]
     baselines = reg.baselines.get(env_id, {})
     lines += ["## Baselines", "", "| name | description |", "|---|---|"]
-    lines += [f"| `{b.name}` | {b.description} |" for b in baselines.values()]
+    upper = f" (**{MARK}**: see [How far from optimal?](../headroom.md))"
+    lines += [f"| `{b.name}` | {b.description}{'' if b.causal else upper} |" for b in baselines.values()]
     bench = reg.benchmarks.get(env_id)
     if bench:
         lines += [
@@ -137,6 +140,7 @@ def page(env_id: str, figures: Path | None, gif: tuple[Path, str, int] | None = 
             "",
             f"`gym4real bench {env_id}` (policies {', '.join(bench.policies)}).",
         ]
+        lines += headroom_section(env_id, figures)
     if info.datasets or any(n.startswith(env_id.split("/")[1].split("-")[0] + "/") for n in reg.datasets):
         domain = env_id.split("/")[1].split("-")[0]
         lines += ["", "## Datasets", "", "| name | path | licence |", "|---|---|---|"]
@@ -230,6 +234,33 @@ def figure_caption(png: str, run: dict[str, Any]) -> str:
         f"{what}. Policies {policies}, best first by the IQM of the objective; {len(run['episodes'])} episodes each, "
         f"{where}. Objective: {objective}; higher is better."
     )
+
+
+def headroom_section(env_id: str, figures: Path | None) -> list[str]:
+    """The env page's headroom: its upper references, and their score beside the best rule-based baseline's
+    when the bench results (``--figures``) hold both; empty without an upper reference."""
+    upper = non_causal(env_id)
+    bench = registry().benchmarks.get(env_id)
+    if not upper or bench is None:
+        return []
+    rule = [b for b in bench.rule_based if b not in upper]
+    command = f"gym4real bench {env_id} --policies {','.join([*upper, *rule])}"
+    lines = [
+        "",
+        "## Headroom",
+        "",
+        f"{', '.join(f'`{u}`' for u in upper)}: the {MARK}, which knows what no agent can know in advance; it bounds "
+        f"what a controller can score here (see [How far from optimal?](../headroom.md)). `{command}` measures it.",
+    ]
+    summary = figures / env_id.replace("/", "_") / "summary.csv" if figures else None
+    if summary is not None and summary.is_file():
+        table = pd.read_csv(summary, index_col="policy")
+        column = "objective_mean" if "objective_mean" in table else "mean"
+        shown = [p for p in [*upper, *rule] if p in table.index]
+        if any(u in shown for u in upper):
+            lines += ["", "| policy | mean objective |", "|---|---|"]
+            lines += [f"| `{p}` | {table.loc[p, column]:.6g} |" for p in shown]
+    return lines
 
 
 def _figures(title: str, folder: Path, intro: str = "") -> list[str]:

@@ -50,7 +50,9 @@ def references(tmp_path_factory: pytest.TempPathFactory, load_script: Callable[[
 
 
 def test_the_best_rule_scores_exactly_one_random_zero_and_itself_one_half(references: Path) -> None:
-    evaluation = gym4real.evaluate({"same": "longest_first", "rnd": "random"}, [ENV], references=references)
+    evaluation = gym4real.evaluate(
+        {"same": "longest_first", "rnd": "random"}, [ENV], references=references, headroom=False
+    )
     score = evaluation.score()
     same, rnd = score["agents"]["same"], score["agents"]["rnd"]
     assert same["aggregate"]["iqm"] == 1.0 and same["envs"][ENV]["normalized_iqm"] == 1.0
@@ -77,7 +79,7 @@ def test_the_best_rule_scores_exactly_one_random_zero_and_itself_one_half(refere
 
 
 def test_without_agents_only_the_reference_agents_are_scored(references: Path) -> None:
-    score = gym4real.evaluate({}, [ENV], references=references).score()
+    score = gym4real.evaluate({}, [ENV], references=references, headroom=False).score()
     assert score["agents"] == {} and list(score["references"]) == ["qlearning"]
     assert score["references"]["qlearning"]["runs"] == 2  # its two seeds
 
@@ -93,7 +95,7 @@ def test_a_changed_env_version_is_refused(references: Path, tmp_path: Path) -> N
     record["fingerprint"]["version"] = "0.0.1"
     (changed / "elevator-v0.json").write_text(json.dumps(record))
     with pytest.raises(ReferenceMismatchError, match=f"version: '0.0.1' in the reference, '{installed}' installed"):
-        gym4real.evaluate({"mine": "longest_first"}, [ENV], references=changed)
+        gym4real.evaluate({"mine": "longest_first"}, [ENV], references=changed, headroom=False)
 
 
 def test_a_user_module_factory_per_seed_from_the_cli_with_the_shipped_references(
@@ -115,7 +117,9 @@ def test_a_user_module_factory_per_seed_from_the_cli_with_the_shipped_references
     monkeypatch.chdir(tmp_path)  # the module is found in the working folder, as the CLI promises
     monkeypatch.syspath_prepend(str(tmp_path))
     out = tmp_path / "out"
-    status = main(["evaluate", "mine=my_agents:make_policy", "--envs", ENV, "--seeds", "0,7", "--out", str(out)])
+    status = main(
+        ["evaluate", "mine=my_agents:make_policy", "--envs", ENV, "--seeds", "0,7", "--out", str(out), "--no-headroom"]
+    )
     assert status == 0
     import my_agents  # type: ignore[import-not-found]
 
@@ -140,9 +144,9 @@ def test_a_user_module_factory_per_seed_from_the_cli_with_the_shipped_references
 
 def test_a_seed_asked_of_a_single_model_or_policy_object_is_refused(references: Path) -> None:
     with pytest.raises(ConfigError, match="names no `\\{seed\\}`"):
-        gym4real.evaluate({"m": "sb3:a2c:model.zip"}, [ENV], seeds=[0, 1], references=references)
+        gym4real.evaluate({"m": "sb3:a2c:model.zip"}, [ENV], seeds=[0, 1], references=references, headroom=False)
     with pytest.raises(PolicyError, match="takes no `seed`"):
-        gym4real.evaluate({"m": lambda obs: 0}, [ENV], seeds=[0, 1], references=references)
+        gym4real.evaluate({"m": lambda obs: 0}, [ENV], seeds=[0, 1], references=references, headroom=False)
 
 
 def test_seeds_as_a_number_are_the_first_seeds_of_each_envs_plan_as_reproduce_trains_them(

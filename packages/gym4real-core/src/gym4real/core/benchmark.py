@@ -91,6 +91,7 @@ class BenchmarkResult:
     description: str = ""  # the episodes run: the test protocol's description, or "N seeded episodes"
     test_protocol: bool = False  # whether the episodes are the env's test protocol
     env_kwargs: dict[str, Any] = field(default_factory=dict)  # the make() arguments of the episodes
+    planned: dict[str, list[float]] = field(default_factory=dict)  # a planner's own objective of each episode
 
     @property
     def labels(self) -> dict[str, str]:
@@ -201,6 +202,7 @@ class BenchmarkResult:
         if self.objectives:
             names = ", ".join(f"{o}_mean" for o in self.objectives)
             notes.append(f"{names}: mean per-episode sum of each entry of the vector reward")
+        notes += _planned_notes(self)
         fewest = int(frame["episodes"].min()) if len(frame) else 0
         if fewest < FEW_EPISODES:
             notes.append(
@@ -225,6 +227,8 @@ class BenchmarkResult:
                 }
                 row.update({c: v[i] for c, v in self.components[name].items()})
                 row.update({f"final_{k}": v[i] for k, v in self.final_info.get(name, {}).items()})
+                if name in self.planned:
+                    row["planned_objective"] = self.planned[name][i]
                 rows.append(row)
         return pd.DataFrame(rows)
 
@@ -252,6 +256,7 @@ class BenchmarkResult:
                 name: {k: [v if np.isfinite(v) else None for v in vals] for k, vals in finals.items()}
                 for name, finals in self.final_info.items()
             },
+            "planned": self.planned,
         }
         written[2].write_text(json.dumps(record, indent=1, default=str))
         written += plots.save_figures(self, out)
@@ -269,6 +274,25 @@ def _seeds_text(seeds: Sequence[Any]) -> str:
         return f"{seeds[0]}..{seeds[-1]}" if len(seeds) > 1 else str(seeds[0])
     shown = ", ".join(str(s) for s in seeds[:5])
     return shown + (", ..." if len(seeds) > 5 else "")
+
+
+def _planned_notes(result: BenchmarkResult) -> list[str]:
+    """Per planner (an upper reference): its planned objective beside the replayed one, and what it is."""
+    from gym4real.core.upper_reference import MARK, non_causal
+
+    notes = [
+        f"{result.labels[name]}: {MARK}, knows what no agent can know in advance (not a baseline to beat)"
+        for name in result.returns
+        if name in non_causal(result.env_id)
+    ]
+    for name, planned in result.planned.items():
+        replayed = result.objective_values(name)
+        gap = float(np.mean(np.asarray(replayed) - np.asarray(planned)))
+        notes.append(
+            f"{result.labels[name]}: planned objective mean {np.mean(planned):,.6g} (the planner's own estimate), "
+            f"replayed {np.mean(replayed):,.6g} (replayed - planned: {gap:+.4g} per episode)"
+        )
+    return notes
 
 
 def _jsonable(episode: Mapping[str, Any]) -> dict[str, Any]:
@@ -420,6 +444,9 @@ def benchmark(
             result.components[name] = {k: [r["components"].get(k, 0.0) for r in runs] for k in keys}
             # NaN where an episode ended without the value (cut short by a time limit)
             result.final_info[name] = {k: [r["final"].get(k, np.nan) for r in runs] for k in final_keys}
+            planned = getattr(policy, "planned_objectives", None)  # a planner's own estimate of each episode
+            if planned is not None and len(planned) >= len(plan):
+                result.planned[name] = [float(v) for v in planned[-len(plan) :]]
     finally:  # a later error (a policy's model file) is printed below the bar, not inside it
         if bar is not None:
             bar.close()

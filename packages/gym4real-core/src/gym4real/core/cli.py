@@ -253,7 +253,15 @@ def _cmd_evaluate(args: argparse.Namespace) -> None:
         print(found.table())
         print(f'score.json (its "mo" section), mo_episodes.csv and Pareto plots written to {args.out}/')
         return
-    result = evaluate(agents, envs, seeds=seeds, references=args.references, out=args.out)
+    result = evaluate(
+        agents,
+        envs,
+        seeds=seeds,
+        references=args.references,
+        out=args.out,
+        allow_non_causal=args.allow_non_causal,
+        headroom=not args.no_headroom,
+    )
     print(result.table())
     print(f"score.json, CSVs, figures and report.md written to {args.out}/")
 
@@ -440,6 +448,16 @@ def _parser() -> argparse.ArgumentParser:
         "hypervolume and EUM against the shipped reference point and fronts",
     )
     ev.add_argument("--out", default=str(Path("results") / "evaluate"), help="output folder (default results/evaluate)")
+    ev.add_argument(
+        "--allow-non-causal",
+        action="store_true",
+        help="accept a non-causal upper reference (hindsight, which knows the episode's exogenous data) as an agent",
+    )
+    ev.add_argument(
+        "--no-headroom",
+        action="store_true",
+        help="do not run the upper references the reference runs lack (no shortfall from hindsight where missing)",
+    )
 
     dataset = sub.add_parser("dataset", help="offline-RL datasets", description="Offline-RL datasets.")
     dsub = dataset.add_subparsers(dest="dataset_command", required=True, metavar="COMMAND")

@@ -25,7 +25,7 @@ import gymnasium as gym
 import numpy as np
 import pandas as pd
 
-from gym4real.core import stats, suite_score
+from gym4real.core import stats, suite_score, upper_reference
 from gym4real.core.benchmark import benchmark, protocol, run_episode
 from gym4real.core.errors import ConfigError, PolicyError
 from gym4real.core.policies import baseline_names, build_policy, is_user_object, make_policy, user_policy
@@ -49,7 +49,8 @@ class EnvResult:
         env_id: The environment.
         scale: Its normalisation (:class:`~gym4real.core.suite_score.Scale`).
         scores: Policy -> per-episode objective ``(seeds, episodes)``.
-        kinds: Policy -> ``agent`` (evaluated here), ``reference`` (a paper agent) or ``baseline``.
+        kinds: Policy -> ``agent`` (evaluated here), ``reference`` (a paper agent), ``baseline``, or ``upper``
+            (a non-causal upper reference, ``hindsight``: never an anchor, the agent's headroom is measured to it).
         seeds: Policy -> its training seeds (empty for a baseline).
         episodes: Every episode of the agents: seed, episode, objective, return, reward components.
         reference: Where the reference runs came from, or why there are none.
@@ -93,6 +94,9 @@ class EnvResult:
         entry["probability_of_improvement_ci"] = intervals
         entry["profile_position"] = {
             p: float(np.mean(self.scores[p] > iqm)) for p, kind in self.kinds.items() if kind != "agent"
+        }
+        entry["headroom"] = {
+            p: upper_reference.headroom(self.scores[p], matrix) for p, kind in self.kinds.items() if kind == "upper"
         }
         return entry
 
@@ -166,7 +170,7 @@ class Evaluation:
             heads = f"{'objective IQM [95% CI]':>36s} {'normalised IQM [95% CI]':>32s}"
             lines.append(f"   {'policy':24s} {'kind':9s} {'seeds':>5s} {heads}")
             for policy, matrix in result.scores.items():
-                trained = result.kinds[policy] != "baseline"
+                trained = result.kinds[policy] in ("agent", "reference")
                 iqm, low, high = stats.iqm_ci(matrix, trained)
                 norm = ""
                 if scale.usable:
@@ -181,6 +185,11 @@ class Evaluation:
                 for other, p in rec["probability_of_improvement"].items():
                     p_low, p_high = rec["probability_of_improvement_ci"][other]
                     lines.append(f"   P({agent} > {other}) = {p:.3f} [{p_low:.3f}, {p_high:.3f}]")
+                for upper, room in rec["headroom"].items():
+                    lines.append(
+                        f"   shortfall of {agent} from {upper} ({upper_reference.MARK}): IQM {room['shortfall']:.5g} "
+                        f"[{room['low']:.5g}, {room['high']:.5g}]"
+                    )
             lines.append("")
         lines.append("== suite score (normalised: 0 = random, 1 = best rule-based baseline; IQM over envs x seeds)")
         lines.append(
@@ -347,6 +356,8 @@ def evaluate(
     seeds: SeedRequest = None,
     references: str | Path | None = None,
     out: str | Path | None = None,
+    allow_non_causal: bool = False,
+    headroom: bool = True,
 ) -> Evaluation:
     """Evaluate agents on the suite's test protocols and compare them with the reference runs.
 
@@ -364,6 +375,13 @@ def evaluate(
             them (the paper's, then 0, 1, ...), or the seeds themselves.
         references: A folder of reference files to use instead of those the domains ship.
         out: If given, write ``score.json``, the CSVs, figures and ``report.md`` there.
+        allow_non_causal: Accept a non-causal upper reference (``hindsight``) as an agent; it is refused
+            otherwise, as it knows the episode's exogenous data. The environments' upper references are
+            run beside the agents in any case (kind ``upper``), and each agent's shortfall from them is its
+            ``headroom``.
+        headroom: Run the upper references the reference runs lack (their plans are cached; the first run of
+            a planner can take minutes: elevator's about 6 CPU minutes); False: only those the reference runs
+            hold are reported.
 
     Raises:
         ReferenceMismatchError: A domain's reference runs were measured on another protocol.
@@ -395,8 +413,16 @@ def evaluate(
                 scores[policy] = matrix
                 run_seeds[policy] = reference.seeds[policy]
                 kinds[policy] = "reference" if reference.seeds[policy] else "baseline"
+                if policy in upper_reference.non_causal(env_id):
+                    kinds[policy] = "upper"
         registered = baseline_names(env_id)
-        missing = [b for b in dict.fromkeys(("random", *spec.policies)) if b in registered and b not in scores]
+        upper = [b for b in upper_reference.non_causal(env_id) if b not in scores]
+        missing_upper = upper if headroom else []
+        missing = [
+            b
+            for b in dict.fromkeys(("random", *spec.policies))
+            if b in registered and b not in scores and b not in upper
+        ]
         if missing:
             result = benchmark(env_id, missing, episodes="test")
             for b in missing:
@@ -405,8 +431,15 @@ def evaluate(
                     "baseline",
                     [],
                 )
+        if missing_upper:
+            result = benchmark(env_id, missing_upper, episodes="test")
+            for b in missing_upper:
+                scores[b], kinds[b], run_seeds[b] = np.asarray(result.objective_values(b), float)[None], "upper", []
         frames = []
         for name, agent in policies.items():
+            upper_reference.check_agent(
+                env_id, name, agent.get(env_id) if isinstance(agent, Mapping) else agent, allow_non_causal
+            )
             if name in scores:
                 raise ConfigError(
                     f"agent name `{name}` is taken by a baseline or reference agent of `{env_id}`; name your agent "

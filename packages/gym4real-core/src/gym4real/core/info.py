@@ -24,6 +24,8 @@ class EnvInfo:
 
     ``flags`` maps each of the paper's Table-1 characteristics and paradigms to whether the env has it.
     ``extra`` holds what the env's plugin reports at run time (for example the simulation engine).
+    ``non_causal`` names the baselines that are non-causal upper references (``hindsight``: handed the
+    episode's exogenous data; :mod:`gym4real.core.upper_reference`), listed among ``baselines`` too.
     """
 
     id: str
@@ -36,12 +38,14 @@ class EnvInfo:
     baselines: tuple[str, ...]
     trainings: tuple[str, ...]
     extra: dict[str, Any]
+    non_causal: tuple[str, ...] = ()
 
 
 def env_info(env_id: str) -> EnvInfo:
     """Return the record of an installed environment (raises a helpful error for an unknown id)."""
     from gym4real.core.policies import baseline_names
     from gym4real.core.registry import load_object
+    from gym4real.core.upper_reference import non_causal
 
     spec = env_spec(env_id)
     reg = registry()
@@ -58,6 +62,7 @@ def env_info(env_id: str) -> EnvInfo:
         baselines=tuple(baseline_names(env_id)),
         trainings=tuple(sorted(f"{a}/{p}" for (e, a, p) in reg.trainings if e == env_id)),
         extra=extra,
+        non_causal=tuple(non_causal(env_id)),
     )
 
 
@@ -149,6 +154,15 @@ def _listing(names: list[str] | tuple[str, ...], most: int = 8) -> str:
     return shown + (f", ... ({len(names)} in all)" if len(names) > most else "")
 
 
+def _baselines(record: dict[str, Any]) -> str:
+    """The baselines, each non-causal one marked as the upper reference it is."""
+    from gym4real.core.upper_reference import MARK
+
+    upper = list(record.get("non_causal", ()))
+    text = _listing([b for b in record["baselines"] if b not in upper])
+    return text + "".join(f"; {b} ({MARK}: knows what no agent can know in advance)" for b in upper)
+
+
 def plain(text: str) -> str:
     """Text for a terminal: the reST literals of docstrings without their double backticks."""
     return re.sub(r"``(.+?)``", r"\1", text)
@@ -175,7 +189,7 @@ def summary_text(record: dict[str, Any], width: int = 100) -> str:
         steps = f" (time limit {iface['max_episode_steps']} steps)" if "max_episode_steps" in iface else ""
         rows.append(("episode end", (iface["episode_end"] or "see the env's docstring") + steps))
     rows.append(("presets", f"{', '.join(record['presets'])} (default: {record['presets'][0]})"))
-    rows.append(("baselines", _listing(record["baselines"])))
+    rows.append(("baselines", _baselines(record)))
     if "benchmark" in record:
         bench = record["benchmark"]
         text = f"{bench['description']}; policies {', '.join(bench['policies'])}; one step = one {bench['step_unit']}"

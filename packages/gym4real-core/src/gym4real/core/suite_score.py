@@ -107,10 +107,13 @@ def scale(env_id: str, baselines: Mapping[str, np.ndarray], rule_based: Sequence
             baseline on the same test episodes.
         rule_based: The environment's rule-based baselines (``BenchmarkSpec.rule_based``).
     """
+    from gym4real.core.upper_reference import non_causal
+
     scores = {name: np.atleast_2d(np.asarray(m, dtype=float)) for name, m in baselines.items()}
     iqms = {name: stats.iqm(m) for name, m in scores.items()}
     random = iqms.get(ZERO, np.nan)
-    candidates = [b for b in rule_based if b in scores]
+    upper = set(non_causal(env_id))  # an upper reference knows the future: never the 1 of the scale
+    candidates = [b for b in rule_based if b in scores and b not in upper]
     if ZERO not in scores:
         return Scale(env_id, random, None, np.nan, f"no `{ZERO}` baseline was run")
     if not candidates:

@@ -34,7 +34,7 @@ def gym4real_register_datasets() -> list[DatasetSpec]:
 
 @hookimpl
 def gym4real_register_baselines() -> list[BaselineSpec]:
-    """Random, longest-first and shortest-first dispatching."""
+    """Random, longest-first and shortest-first dispatching; the hindsight planner (a non-causal upper reference)."""
     return [
         BaselineSpec(ENV_ID, "random", "gym4real.core.policies:random_policy", "uniform random actions"),
         BaselineSpec(
@@ -45,6 +45,13 @@ def gym4real_register_baselines() -> list[BaselineSpec]:
             "shortest_first",
             "gym4real.elevator.baselines:shortest_first",
             "serve the shortest non-empty queue first",
+        ),
+        BaselineSpec(
+            ENV_ID,
+            "hindsight",
+            "gym4real.elevator.hindsight:hindsight",
+            "upper reference: exact dynamic programming over cabin, load and queues knowing the episode's arrivals",
+            causal=False,
         ),
     ]
 

@@ -131,7 +131,11 @@ def gym4real_register_datasets() -> list[DatasetSpec]:
 
 @hookimpl
 def gym4real_register_baselines() -> list[BaselineSpec]:
-    """`random` everywhere, `fixed` (picking), plus an `oracle` reading the true pose everywhere."""
+    """`random` everywhere, `fixed` (picking), plus an `oracle` reading the true pose everywhere.
+
+    The `oracle` is robofeeder's upper reference (``causal=False``, as the other domains' ``hindsight``): it is
+    handed the simulator's ground truth, which no agent observes.
+    """
     oracle = "gym4real.robofeeder.baselines:oracle"
     return [
         *(
@@ -149,7 +153,9 @@ def gym4real_register_baselines() -> list[BaselineSpec]:
                     env_id,
                     "oracle",
                     oracle,
-                    "grasps the nearest object at its true grasp point and yaw (reads the simulator)",
+                    "upper reference: grasps the nearest object at its true grasp point and yaw (reads the simulator's "
+                    "ground truth, which the agent must infer from the camera)",
+                    causal=False,
                 ),
             )
         ),
@@ -172,7 +178,9 @@ def gym4real_register_baselines() -> list[BaselineSpec]:
             PLANNING_V0,
             "oracle",
             oracle,
-            "picks a crop holding a graspable object, idles when none is left (reads the simulator)",
+            "upper reference: picks a crop holding a graspable object, idles when none is left (reads the "
+            "simulator's ground truth)",
+            causal=False,
         ),
     ]
 

@@ -79,12 +79,19 @@ def gym4real_register_datasets() -> list[DatasetSpec]:
 
 @hookimpl
 def gym4real_register_baselines() -> list[BaselineSpec]:
-    """Buy&Hold, Sell&Hold, always flat and random."""
+    """Buy&Hold, Sell&Hold, always flat and random; the hindsight planner (a non-causal upper reference)."""
     return [
         BaselineSpec(ENV_ID, "buy_and_hold", "gym4real.trading.baselines:buy_and_hold", "always long (B&H)"),
         BaselineSpec(ENV_ID, "sell_and_hold", "gym4real.trading.baselines:sell_and_hold", "always short (S&H)"),
         BaselineSpec(ENV_ID, "flat", "gym4real.trading.baselines:flat", "never in the market"),
         BaselineSpec(ENV_ID, "random", "gym4real.core.policies:random_policy", "uniform random actions"),
+        BaselineSpec(
+            ENV_ID,
+            "hindsight",
+            "gym4real.trading.hindsight:hindsight",
+            "upper reference: exact dynamic programming over the position knowing the day's prices",
+            causal=False,
+        ),
     ]
 
 

@@ -189,7 +189,9 @@ def reproduce_env(
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "error.txt").unlink(missing_ok=True)
     spec = protocol(env_id)
-    baselines = list(spec.policies)
+    from gym4real.core.upper_reference import non_causal
+
+    baselines = list(dict.fromkeys([*spec.policies, *non_causal(env_id)]))  # with the upper references: headroom
     test_start = time.perf_counter()
     result = benchmark(env_id, [*baselines, *(run.policy for run in runs)], episodes="test")
     test_wall = time.perf_counter() - test_start

@@ -25,6 +25,7 @@ from gym4real.core import stats
 from gym4real.core.numbers import human
 from gym4real.core.rl import analysis, summary_figure, workspace
 from gym4real.core.rl.claims import QUANTITIES, RULES, VERDICTS
+from gym4real.core.rl.headroom_page import headroom_table
 
 #: The name of a results folder: ``<env>-<budget>``.
 FOLDER = re.compile(r"^(?P<env>[a-z0-9-]+)-(?P<budget>paper|quick)$")
@@ -551,6 +552,7 @@ def write_page(out: Path, page: str | Path | None = None) -> Path:
         *_summary_figure(list(sections.values()), out),
         *_verdicts(claims, scales),
         *suite_scores(list(sections.values())),
+        *headroom_table(list(sections.values())),
     ]
     body: list[str] = []
     for folder in folders:

@@ -1,0 +1,220 @@
+"""The hindsight planner's dynamic programme over the lake level, compiled (numba).
+
+Each candidate day is integrated with the batched env's own compiled release bounds
+(:func:`gym4real.dam.vector_kernel._release` and ``_constant``, the single env's sub-step expressions), so
+the planner's transitions are the environment's hourly mass balance and release bounds.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from gym4real.dam.vector_kernel import _release
+
+
+@njit(cache=True)
+def _q_max(h: float, lake: tuple[float, ...]) -> float:
+    """``q_max(h)`` above l_min, as :func:`_release` evaluates it (linear up to l_lim, then the rating curve)."""
+    llim, k, c, alpha, beta, cr = lake[3], lake[4], lake[5], lake[6], lake[7], lake[8]
+    return h * k + c if h <= llim else ((h - alpha) ** beta) * cr
+
+
+@njit(cache=True)
+def _regime(h: float, q_max: float, wanted: float, lake: tuple[float, ...]) -> int:
+    """:func:`~gym4real.dam.vector_kernel._constant` given ``q_max(h)``: 0, 1, 2 (a constant release) or -1."""
+    lmin, lmax, llim = lake[1], lake[2], lake[3]
+    if h <= lmin:
+        return 0
+    if h > lmax or q_max < wanted:
+        return -1
+    return 1 if h <= llim else 2
+
+
+@njit(cache=True)
+def _days(
+    storage: float,
+    decisions: np.ndarray,
+    inflow: float,
+    evaporation: float,
+    lake: tuple[float, float, float, float, float, float, float, float, float, float],
+    evaporates: bool,
+    substeps: int,
+    after: np.ndarray,
+    mean_release: np.ndarray,
+) -> int:
+    """Integrate one day from ``storage`` for each wanted release: the storages after it and the mean releases.
+
+    Returns the number of candidates that give distinct days: the ``decisions`` are ascending, and once the
+    wanted release sets no sub-step's release (the bounds decide it all day: forced above l_max, nothing
+    up to l_min, ``q_max`` below the wanted release), every larger wanted release gives that same day, so
+    they are left out.
+
+    As :func:`~gym4real.dam.vector_kernel.integrate_copies` does: a day whose first and last sub-steps
+    release the same constant (:func:`_constant`'s test) releases it in every sub-step, and the storage
+    moves by ``substeps`` equal steps (summed here in one product: a rounding difference, not another day);
+    any other day runs sub-step by sub-step with the env's release bounds (:func:`_release`). ``q_max`` at
+    the start is evaluated once; at the end only where the level fell or changed branch (it is monotone in
+    the level within a branch, so a rise keeps a feasible release feasible).
+    """
+    area, lmin, lmax, llim, dt = lake[0], lake[1], lake[2], lake[3], lake[9]
+    h0 = storage / area + lmin
+    q0 = _q_max(h0, lake) if h0 > lmin else 0.0
+    for j in range(decisions.size):
+        m = decisions[j]
+        first = _regime(h0, q0, m, lake)
+        if first >= 0:
+            r = m if first > 0 else 0.0
+            net = inflow - r
+            if evaporates:
+                net -= evaporation
+            h1 = (storage + net * dt * (substeps - 1)) / area + lmin
+            if first == 0:
+                same = h1 <= lmin
+            elif h1 >= h0 and (h1 <= llim) == (h0 <= llim):
+                same = _regime(h1, q0, m, lake) == first  # q_max(h1) >= q0 >= m
+            else:
+                same = h1 > lmin and _regime(h1, _q_max(h1, lake), m, lake) == first
+            if same:
+                after[j] = storage + net * dt * substeps
+                mean_release[j] = r
+                continue
+        s, total, bound = storage, 0.0, True
+        for _ in range(substeps):
+            h = s / area + lmin
+            r = _release(h, m, lake)
+            bound = bound and (h > lmax or h <= lmin or r < m)  # a release the wanted one does not set
+            total += r
+            net = inflow - r
+            if evaporates:
+                net -= evaporation
+            s += net * dt
+        after[j] = s
+        mean_release[j] = total / substeps
+        if bound:
+            return j + 1
+    return decisions.size
+
+
+@njit(cache=True)
+def _value(values: np.ndarray, low: float, step: float, level: float) -> float:
+    """The value function on the uniform level grid, interpolated linearly (clamped at the ends)."""
+    x = (level - low) / step
+    last = values.size - 1
+    if x <= 0.0:
+        return values[0]
+    if x >= last:
+        return values[last]
+    i = int(x)
+    f = x - i
+    return values[i] + f * (values[i + 1] - values[i])
+
+
+@njit(cache=True)
+def _reward(
+    release: float,
+    level: float,
+    demand: float,
+    min_flow: float,
+    weight: float,
+    costs: tuple[float, float, float, float, float],
+) -> float:
+    """The day's objective (deficit + overflow + starving, weighted), as :meth:`DamEnv.step` computes it."""
+    w_deficit, w_overflow, w_starving, flood, starving = costs
+    supplied = release - min_flow
+    if supplied < 0.0:
+        supplied = 0.0
+    shortfall = demand - supplied
+    deficit = (shortfall if shortfall > 0.0 else 0.0) * weight
+    reward = -deficit * w_deficit
+    if level > flood:
+        reward -= w_overflow
+    if level < starving:
+        reward -= w_starving
+    return reward
+
+
+@njit(cache=True)
+def backward(
+    low: float,
+    step: float,
+    points: int,
+    decisions: np.ndarray,
+    counts: np.ndarray,
+    exogenous: np.ndarray,
+    lake: tuple[float, float, float, float, float, float, float, float, float, float],
+    evaporates: bool,
+    substeps: int,
+    costs: tuple[float, float, float, float, float],
+) -> np.ndarray:
+    """The optimal value ``V[t, g]`` of the rest of the episode from grid level ``g`` at the start of day ``t``.
+
+    Args:
+        low: The grid's lowest level (m).
+        step: The grid's spacing (m).
+        points: The number of grid levels.
+        decisions: ``(days, K)``: each day's candidate wanted releases (m3/s), the first ``counts[t]`` used.
+        counts: The number of candidates of each day.
+        exogenous: ``(days, 5)``: demand, inflow, minimum flow, evaporation and deficit weight of each day.
+        lake: The compiled day's constants (surface, l_min, ..., dt; see ``DamVectorEnv``).
+        evaporates: Whether evaporation is subtracted.
+        substeps: Sub-steps per day.
+        costs: Weights of deficit, overflow and starving; flood and starving levels.
+
+    Returns:
+        ``(days + 1, points)``; the last row is 0 (nothing is scored after the episode).
+    """
+    days = exogenous.shape[0]
+    area, lmin = lake[0], lake[1]
+    values = np.zeros((days + 1, points))
+    width = decisions.shape[1]
+    after = np.empty(width)
+    mean_release = np.empty(width)
+    for t in range(days - 1, -1, -1):
+        demand, inflow, min_flow, evaporation, weight = exogenous[t]
+        k = counts[t]
+        for g in range(points):
+            storage = area * (low + g * step - lmin)
+            distinct = _days(
+                storage, decisions[t, :k], inflow, evaporation, lake, evaporates, substeps, after, mean_release
+            )
+            best = -np.inf
+            for j in range(distinct):
+                level = after[j] / area + lmin
+                value = _reward(mean_release[j], level, demand, min_flow, weight, costs)
+                value += _value(values[t + 1], low, step, level)
+                if value > best:
+                    best = value
+            values[t, g] = best
+    return values
+
+
+@njit(cache=True)
+def choose(
+    storage: float,
+    t: int,
+    values: np.ndarray,
+    low: float,
+    step: float,
+    decisions: np.ndarray,
+    exogenous: np.ndarray,
+    lake: tuple[float, float, float, float, float, float, float, float, float, float],
+    evaporates: bool,
+    substeps: int,
+    costs: tuple[float, float, float, float, float],
+) -> int:
+    """The index of the best candidate of day ``t`` from the exact ``storage`` (ties: the first)."""
+    demand, inflow, min_flow, evaporation, weight = exogenous[t]
+    k = decisions.size
+    after = np.empty(k)
+    mean_release = np.empty(k)
+    distinct = _days(storage, decisions, inflow, evaporation, lake, evaporates, substeps, after, mean_release)
+    area, lmin = lake[0], lake[1]
+    best, index = -np.inf, 0
+    for j in range(distinct):
+        level = after[j] / area + lmin
+        value = _reward(mean_release[j], level, demand, min_flow, weight, costs)
+        value += _value(values[t + 1], low, step, level)
+        if value > best:
+            best, index = value, j
+    return index
