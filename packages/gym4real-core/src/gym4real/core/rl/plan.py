@@ -95,6 +95,8 @@ class Item:
     preset: str
     seed: int
     folder: Path
+    #: A folder with a damaged file is moved aside and the run trained again (else the run is refused).
+    retrain_damaged: bool = False
 
 
 def plan(env_id: str, budget: str, n_seeds: int | None, out: Path) -> list[Item]:

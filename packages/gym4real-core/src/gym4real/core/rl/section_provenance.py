@@ -1,0 +1,42 @@
+"""The provenance lines of a results section: whether it is current, and who trained each run."""
+
+from __future__ import annotations
+
+import json
+
+import pandas as pd
+
+#: Shown for what a section's files do not record (runs trained before the record existed).
+NOT_RECORDED = "not recorded"
+
+
+def currency_line(stale: list[str]) -> str:
+    """The section's line on its fingerprints (:func:`gym4real.core.rl.fingerprints.section_changes`)."""
+    if not stale:
+        return (
+            "**Current**: its test protocol, data and trainer fingerprints equal those of the code that rendered "
+            "this page (`gym4real reproduce --check`)."
+        )
+    return f"**Stale** (`gym4real reproduce --check`): {'; '.join(stale)}."
+
+
+def _resumes(text: object) -> str:
+    """A run's resume record (``runs.csv``'s JSON list) in words."""
+    if not isinstance(text, str) or text == NOT_RECORDED:
+        return NOT_RECORDED
+    resumes = json.loads(text)
+    if not resumes:
+        return "never"
+    return ", ".join(f"at {r['at']:,} {r['unit']} by `{r.get('code_version', '?')}`" for r in resumes)
+
+
+def run_provenance(runs: pd.DataFrame | None, algo: str, seed: int) -> tuple[str, str]:
+    """A run's training commit and resume record, as ``runs.csv`` has them, else :data:`NOT_RECORDED`."""
+    if runs is None:
+        return NOT_RECORDED, NOT_RECORDED
+    row = runs[(runs["algo"] == algo) & (runs["seed"] == int(seed))]
+    if not len(row):
+        return NOT_RECORDED, NOT_RECORDED
+    trained_by = row["trained_by"].iloc[0] if "trained_by" in row else NOT_RECORDED
+    trained = f"`{trained_by}`" if isinstance(trained_by, str) and trained_by != NOT_RECORDED else NOT_RECORDED
+    return trained, _resumes(row["resumes"].iloc[0] if "resumes" in row else NOT_RECORDED)

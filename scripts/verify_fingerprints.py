@@ -1,0 +1,108 @@
+"""Record the fingerprints of a results section trained before sections recorded them, where verified.
+
+A section written before ``report.json`` held fingerprints (:mod:`gym4real.core.rl.fingerprints`) gets
+each one only when this checkout verifies that it is the one its numbers were made with:
+
+- ``protocol``: every baseline is run again on the installed test protocol and must score, episode by
+  episode, what ``episodes.csv`` records for it (to 1e-12 relative; the CSV round-trips floats);
+- ``data``: the SHA-256 of each data file the section's report recorded must equal that of the copy found
+  here (a stand-in read in place of a missing file: the stand-in's recorded hash);
+- ``trainer``: each run's settings (``runs.csv``) must be the installed preset's, the recorded
+  Stable-Baselines3 and PyTorch versions the installed ones, and ``--trainer-verified`` must say how
+  :data:`~gym4real.core.rl.fingerprints.TRAINER_VERSION` was checked against the training commit (the golden
+  smoke runs of ``tests/test_trainer_version.py`` giving the same hashes there as here).
+
+A part that fails its check is not recorded (the section then shows as stale and names it). How each part
+was verified is written beside the fingerprints (``fingerprints_verified``).
+
+Usage: ``python scripts/verify_fingerprints.py docs/results/dam-v0-paper [...] --trainer-verified TEXT``
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from gym4real.core.benchmark import benchmark, protocol
+from gym4real.core.rl import fingerprints, provenance
+from gym4real.core.rl.presets import load_preset
+
+
+def verify_protocol(env_id: str, episodes: pd.DataFrame) -> str | None:
+    """How the baselines' rerun matched ``episodes.csv``, or None when one episode differs."""
+    baselines = list(protocol(env_id).policies)
+    result = benchmark(env_id, baselines, episodes="test")
+    worst = 0.0
+    for name in baselines:
+        mine = np.asarray(result.objective_values(name), dtype=float)
+        theirs = episodes.loc[episodes["policy"] == name].sort_values("episode")["objective"].to_numpy(float)
+        if mine.shape != theirs.shape or not np.allclose(mine, theirs, rtol=1e-12, atol=0.0):
+            print(f"  protocol: `{name}` differs (max {np.max(np.abs(mine - theirs)) if mine.shape == theirs.shape else 'shape'})")
+            return None
+        worst = max(worst, float(np.max(np.abs(mine - theirs))) if mine.size else 0.0)
+    count = int(sum(episodes["policy"].isin(baselines)))
+    return (
+        f"the {len(baselines)} baselines ({', '.join(baselines)}) rerun by {provenance.code_version()} on the "
+        f"installed protocol score the {count} baseline rows of episodes.csv (largest difference {worst:.3g})"
+    )
+
+
+def verify_data(report: dict[str, Any], installed: dict[str, str]) -> str | None:
+    recorded = fingerprints.data_fingerprint(report["data_files"])
+    if recorded != installed:
+        print(f"  data: differs in {sorted(k for k in recorded if recorded.get(k) != installed.get(k))}")
+        return None
+    return f"the SHA-256 of the {len(recorded)} data files report.json recorded equal those of the copies found"
+
+
+def verify_trainer(report: dict[str, Any], runs: pd.DataFrame, how: str) -> tuple[dict[str, Any] | None, str]:
+    env_id = report["env_id"]
+    for row in runs.to_dict("records"):
+        if json.loads(row["settings"]) != load_preset(env_id, row["algo"], row["preset"]):
+            print(f"  trainer: {row['algo']} seed {row['seed']} trained other settings than `{row['preset']}`")
+            return None, ""
+    recorded = fingerprints.trainer_fingerprint(env_id, report["presets"])
+    for dist in ("stable-baselines3", "torch"):
+        if dist in recorded:
+            if report["versions"].get(dist) != recorded[dist]:
+                print(f"  trainer: {dist} {report['versions'].get(dist)} recorded, {recorded[dist]} installed")
+                return None, ""
+    return recorded, (
+        f"every run's settings (runs.csv) equal the installed presets; SB3/PyTorch versions as recorded; {how}"
+    )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("sections", nargs="+", type=Path)
+    parser.add_argument("--trainer-verified", required=True, help="how TRAINER_VERSION was checked at the training commit")
+    args = parser.parse_args()
+    for folder in args.sections:
+        report_path = folder / "report.json"
+        report = json.loads(report_path.read_text())
+        env_id = report["env_id"]
+        print(f"{folder.name}:")
+        installed = fingerprints.fingerprints(env_id, report["budget"])
+        found: dict[str, Any] = {}
+        how: dict[str, str] = {}
+        episodes = pd.read_csv(folder / "episodes.csv", float_precision="round_trip")
+        if (text := verify_protocol(env_id, episodes)) is not None:
+            found["protocol"], how["protocol"] = installed["protocol"], text
+        if (text := verify_data(report, installed["data"])) is not None:
+            found["data"], how["data"] = installed["data"], text
+        trainer, text = verify_trainer(report, pd.read_csv(folder / "runs.csv"), args.trainer_verified)
+        if trainer is not None:
+            found["trainer"], how["trainer"] = trainer, text
+        report[fingerprints.KEY] = found
+        report["fingerprints_verified"] = how
+        report_path.write_text(json.dumps(report, indent=1))
+        print(f"  recorded: {sorted(found)}")
+
+
+if __name__ == "__main__":
+    main()
