@@ -42,7 +42,8 @@ def verify_protocol(env_id: str, episodes: pd.DataFrame) -> str | None:
         mine = np.asarray(result.objective_values(name), dtype=float)
         theirs = episodes.loc[episodes["policy"] == name].sort_values("episode")["objective"].to_numpy(float)
         if mine.shape != theirs.shape or not np.allclose(mine, theirs, rtol=1e-12, atol=0.0):
-            print(f"  protocol: `{name}` differs (max {np.max(np.abs(mine - theirs)) if mine.shape == theirs.shape else 'shape'})")
+            gap = np.max(np.abs(mine - theirs)) if mine.shape == theirs.shape else "another number of episodes"
+            print(f"  protocol: `{name}` differs ({gap})")
             return None
         worst = max(worst, float(np.max(np.abs(mine - theirs))) if mine.size else 0.0)
     count = int(sum(episodes["policy"].isin(baselines)))
@@ -53,6 +54,7 @@ def verify_protocol(env_id: str, episodes: pd.DataFrame) -> str | None:
 
 
 def verify_data(report: dict[str, Any], installed: dict[str, str]) -> str | None:
+    """How the recorded data hashes matched the installed ones, or None when one differs."""
     recorded = fingerprints.data_fingerprint(report["data_files"])
     if recorded != installed:
         print(f"  data: differs in {sorted(k for k in recorded if recorded.get(k) != installed.get(k))}")
@@ -61,6 +63,7 @@ def verify_data(report: dict[str, Any], installed: dict[str, str]) -> str | None
 
 
 def verify_trainer(report: dict[str, Any], runs: pd.DataFrame, how: str) -> tuple[dict[str, Any] | None, str]:
+    """The trainer fingerprint and how it was verified, or ``(None, "")`` when a run or version differs."""
     env_id = report["env_id"]
     for row in runs.to_dict("records"):
         if json.loads(row["settings"]) != load_preset(env_id, row["algo"], row["preset"]):
@@ -68,19 +71,19 @@ def verify_trainer(report: dict[str, Any], runs: pd.DataFrame, how: str) -> tupl
             return None, ""
     recorded = fingerprints.trainer_fingerprint(env_id, report["presets"])
     for dist in ("stable-baselines3", "torch"):
-        if dist in recorded:
-            if report["versions"].get(dist) != recorded[dist]:
-                print(f"  trainer: {dist} {report['versions'].get(dist)} recorded, {recorded[dist]} installed")
-                return None, ""
+        if dist in recorded and report["versions"].get(dist) != recorded[dist]:
+            print(f"  trainer: {dist} {report['versions'].get(dist)} recorded, {recorded[dist]} installed")
+            return None, ""
     return recorded, (
         f"every run's settings (runs.csv) equal the installed presets; SB3/PyTorch versions as recorded; {how}"
     )
 
 
 def main() -> None:
+    """Verify and record the fingerprints of each section named on the command line."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("sections", nargs="+", type=Path)
-    parser.add_argument("--trainer-verified", required=True, help="how TRAINER_VERSION was checked at the training commit")
+    parser.add_argument("--trainer-verified", required=True, help="how TRAINER_VERSION was checked when trained")
     args = parser.parse_args()
     for folder in args.sections:
         report_path = folder / "report.json"

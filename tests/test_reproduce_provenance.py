@@ -34,8 +34,11 @@ def _cli(*args: str, plugins: str = "elevator") -> subprocess.CompletedProcess[s
 
 
 def _snapshot(folder: Path) -> dict[str, tuple[bytes, int]]:
-    return {p.relative_to(folder).as_posix(): (p.read_bytes(), p.stat().st_mtime_ns) for p in folder.rglob("*")
-            if p.is_file()}
+    return {
+        p.relative_to(folder).as_posix(): (p.read_bytes(), p.stat().st_mtime_ns)
+        for p in folder.rglob("*")
+        if p.is_file()
+    }
 
 
 @pytest.fixture(scope="module")
@@ -69,9 +72,9 @@ def test_a_truncated_qtable_stops_reproduce_naming_the_file_and_leaves_the_folde
     aside = [p for p in run.parent.iterdir() if p.name.startswith("seed42.damaged-")]
     assert len(aside) == 1 and _snapshot(aside[0]).keys() == before.keys()
     assert (aside[0] / "qtable.npz").read_bytes() == before["qtable.npz"][0]
-    with np.load(run / "qtable.npz") as fresh:  # the run trained again, to the same table as the first time
-        with np.load(elevator_quick / "elevator-v0" / "quick" / "runs" / "qlearning" / "seed42" / "qtable.npz") as old:
-            assert np.array_equal(fresh["q"], old["q"])
+    first = elevator_quick / "elevator-v0" / "quick" / "runs" / "qlearning" / "seed42" / "qtable.npz"
+    with np.load(run / "qtable.npz") as fresh, np.load(first) as old:  # trained again, to the same table
+        assert np.array_equal(fresh["q"], old["q"])
 
 
 @pytest.mark.parametrize(

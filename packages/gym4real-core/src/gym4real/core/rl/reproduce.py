@@ -276,7 +276,8 @@ def reproduce(
     for env_id in env_ids:
         try:
             plans[env_id] = [
-                dataclasses.replace(item, retrain_damaged=retrain_damaged) for item in plan(env_id, budget, n_seeds, out)
+                dataclasses.replace(item, retrain_damaged=retrain_damaged)
+                for item in plan(env_id, budget, n_seeds, out)
             ]
         except Gym4RealError as exc:
             errors[env_id] = " ".join(str(exc).split())
@@ -322,5 +323,7 @@ def reproduce(
     lines.append(f"results in {out}/ (page {written})")
     damaged = [o.error for o in outcomes if o.run is None and damaged_file(o.item.folder) is not None]
     if damaged:
-        raise DamagedRunError(f"{len(damaged)} run folder(s) hold a damaged file: {'; '.join(map(str, damaged))}", "\n".join(lines))
+        raise DamagedRunError(
+            f"{len(damaged)} run folder(s) hold a damaged file: {'; '.join(map(str, damaged))}", "\n".join(lines)
+        )
     return "\n".join(lines)

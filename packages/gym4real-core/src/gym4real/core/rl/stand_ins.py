@@ -55,7 +55,7 @@ def differences(report: dict[str, Any], episodes: pd.DataFrame) -> list[str]:
             found.append(f"`{algo}` trained with the stand-in preset `{preset}`")
             continue
         unit = "total_timesteps" if "total_timesteps" in mine else "episodes"
-        if unit in theirs and theirs[unit]:
+        if theirs.get(unit):
             found.append(
                 f"`{algo}` trained with the stand-in preset `{preset}` in place of `{named}`: {mine[unit]:,} "
                 f"{'steps' if unit == 'total_timesteps' else 'episodes'}, {100 * mine[unit] / theirs[unit]:.1f} % "
