@@ -93,7 +93,7 @@ def main() -> None:
         installed = fingerprints.fingerprints(env_id, report["budget"])
         found: dict[str, Any] = {}
         how: dict[str, str] = {}
-        episodes = pd.read_csv(folder / "episodes.csv", float_precision="round_trip")
+        episodes = pd.read_csv(folder / "episodes.csv")
         if (text := verify_protocol(env_id, episodes)) is not None:
             found["protocol"], how["protocol"] = installed["protocol"], text
         if (text := verify_data(report, installed["data"])) is not None:
