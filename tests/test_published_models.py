@@ -19,7 +19,9 @@ RESULTS = Path(__file__).parents[1] / "docs" / "results"
 
 
 @pytest.mark.parametrize(("section", "algo", "seed"), [("dam-v0-paper", "ppo", 0), ("wds-v0-paper", "dqn", 0)])
-def test_evaluating_a_published_model_reproduces_its_published_test_episodes(section: str, algo: str, seed: int) -> None:
+def test_evaluating_a_published_model_reproduces_its_published_test_episodes(
+    section: str, algo: str, seed: int
+) -> None:
     pytest.importorskip("stable_baselines3")
     from gym4real.core.evaluate import evaluate
 
