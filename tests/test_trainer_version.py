@@ -19,6 +19,7 @@ from __future__ import annotations
 import hashlib
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -91,7 +92,8 @@ def parameters_sha256(model: Path) -> str:
         from stable_baselines3.common.save_util import load_from_zip_file
 
         _, params, _ = load_from_zip_file(model, device="cpu")
-        arrays = [(name, tensor.numpy()) for name, tensor in sorted(params["policy"].items())]
+        state: dict[str, Any] = dict(params["policy"])  # the policy's state dict: name -> tensor
+        arrays = [(name, tensor.numpy()) for name, tensor in sorted(state.items())]
     for name, array in arrays:
         digest.update(name.encode())
         digest.update(np.round(np.asarray(array, dtype=np.float64), 6).tobytes())

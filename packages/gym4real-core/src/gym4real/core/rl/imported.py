@@ -14,7 +14,7 @@ def imported_distributions() -> dict[str, str]:
     standard library and modules of no installed distribution are left out. A portion ``gym4real.X`` of the
     namespace package counts as the distribution ``gym4real-X`` (an editable install lists no files).
     """
-    owners = metadata.packages_distributions()
+    owners = dict(metadata.packages_distributions())
     names = list(sys.modules)
     for name in names:  # gym4real's namespace portions (editable installs list no files): gym4real.X <- gym4real-X
         if name.count(".") == 1 and name.startswith("gym4real."):
