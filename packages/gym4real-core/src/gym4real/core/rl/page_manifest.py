@@ -25,6 +25,7 @@ def section_record(folder: Path, report: dict[str, Any], files: list[Path], stal
     """The manifest's record of one results section (``files``: those it publishes)."""
     listing = folder / LISTING
     return {
+        "env_id": report["env_id"],
         "command": report["command"],
         "trained_at": report["code_version"],
         "current": not stale,

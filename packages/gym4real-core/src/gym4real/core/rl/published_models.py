@@ -64,10 +64,12 @@ def publish_models(runs: list[TrainingRun], section: Path, budget: str) -> list[
         size = sum(p.stat().st_size for p in files)
         name = f"{run.algo}-seed{run.seed}"
         published = size <= MAX_BYTES
+        record = json.loads((run.model_path.parent / "run.json").read_text())
         entry: dict[str, Any] = {
             "algo": run.algo,
             "seed": run.seed,
             "preset": run.preset,
+            "trained_by": record.get("versions", {}).get("gym4real (git)", "not recorded"),
             "files": [{"name": p.name, "sha256": sha256_of(p), "bytes": p.stat().st_size} for p in files],
             "bytes": size,
             "published": published,
@@ -89,5 +91,35 @@ def publish_models(runs: list[TrainingRun], section: Path, budget: str) -> list[
         else:
             entry["why_not_published"] = f"{size / 2**20:.1f} MiB, over the {MAX_BYTES // 2**20} MiB limit"
         listing.append(entry)
+    (section / LISTING).write_text(json.dumps(listing, indent=1) + "\n")
+    return listing
+
+
+def list_unkept_models(section: Path, why: str) -> list[dict[str, Any]]:
+    """Write ``models.json`` for a section whose models were not kept (trained before models were published).
+
+    Each run of its ``runs.csv`` is listed unpublished, with ``why`` and the ``gym4real train`` command that
+    trains it again; no hash is recorded, since no copy of the model is left to hash.
+    """
+    import pandas as pd
+
+    report = json.loads((section / "report.json").read_text())
+    runs = pd.read_csv(section / "runs.csv")
+    listing = [
+        {
+            "algo": row["algo"],
+            "seed": int(row["seed"]),
+            "preset": row["preset"],
+            "files": "not recorded",
+            "published": False,
+            "why_not_published": why,
+            "retrain": (
+                f"gym4real train {report['env_id']} --algo {row['algo']} --preset {row['preset']} "
+                f"--seed {int(row['seed'])} --out runs/{slug(report['env_id'])}/{report['budget']}/{row['algo']}/"
+                f"seed{int(row['seed'])}"
+            ),
+        }
+        for row in runs.sort_values(["algo", "seed"]).to_dict("records")
+    ]
     (section / LISTING).write_text(json.dumps(listing, indent=1) + "\n")
     return listing

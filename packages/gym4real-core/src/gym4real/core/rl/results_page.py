@@ -11,6 +11,7 @@ folder alone regenerates the page (``write_page(page)``).
 
 from __future__ import annotations
 
+import hashlib
 import json
 import re
 import shutil
@@ -486,8 +487,10 @@ def write_page(out: Path, page: str | Path | None = None) -> Path:
     (out / "results.md").write_text(text)
     (out / "claims.json").write_text(json.dumps(claims, indent=1))
     (out / "claims.md").write_text(claims_table(claims, scales, marks))
-    record["files"] = files_sha256([out / "claims.json", out / "claims.md", out / "results.md"], out)
-    record["files"]["index.md"] = record["files"]["results.md"]  # the page folder's copy of results.md
+    record["files"] = {  # the page's own files (a page folder's index.md is results.md)
+        **files_sha256([out / "claims.json"], out),
+        "index.md": hashlib.sha256(text.encode()).hexdigest(),
+    }
     (out / "manifest.json").write_text(json.dumps(record, indent=1))
     if page is None:
         return out / "results.md"
