@@ -5,8 +5,8 @@ each one only when this checkout verifies that it is the one its numbers were ma
 
 - ``protocol``: every baseline is run again on the installed test protocol and must score, episode by
   episode, what ``episodes.csv`` records for it (to 1e-12 relative; the CSV round-trips floats);
-- ``data``: the SHA-256 of each data file the section's report recorded must equal that of the copy found
-  here (a stand-in read in place of a missing file: the stand-in's recorded hash);
+- ``data``: the SHA-256 of each data file as the section's report recorded it at run time (a stand-in read
+  in place of a missing file: the stand-in's recorded hash); a file that differs here makes it stale;
 - ``trainer``: each run's settings (``runs.csv``) must be the installed preset's, the recorded
   Stable-Baselines3 and PyTorch versions the installed ones, and ``--trainer-verified`` must say how
   :data:`~gym4real.core.rl.fingerprints.TRAINER_VERSION` was checked against the training commit (the golden
@@ -53,13 +53,16 @@ def verify_protocol(env_id: str, episodes: pd.DataFrame) -> str | None:
     )
 
 
-def verify_data(report: dict[str, Any], installed: dict[str, str]) -> str | None:
-    """How the recorded data hashes matched the installed ones, or None when one differs."""
+def verify_data(report: dict[str, Any], installed: dict[str, str]) -> tuple[dict[str, str], str]:
+    """The data fingerprint the run recorded (its files' SHA-256 at run time), and how it compares here."""
     recorded = fingerprints.data_fingerprint(report["data_files"])
-    if recorded != installed:
-        print(f"  data: differs in {sorted(k for k in recorded if recorded.get(k) != installed.get(k))}")
-        return None
-    return f"the SHA-256 of the {len(recorded)} data files report.json recorded equal those of the copies found"
+    differ = sorted(k for k in recorded if recorded.get(k) != installed.get(k))
+    if differ:
+        print(f"  data: differs in {differ}")
+    return recorded, (
+        f"the SHA-256 of the {len(recorded)} data files read, as report.json recorded them at run time"
+        + (f"; differ from the copies found here: {', '.join(differ)}" if differ else "; equal to the copies found")
+    )
 
 
 def verify_trainer(report: dict[str, Any], runs: pd.DataFrame, how: str) -> tuple[dict[str, Any] | None, str]:
@@ -96,8 +99,7 @@ def main() -> None:
         episodes = pd.read_csv(folder / "episodes.csv")
         if (text := verify_protocol(env_id, episodes)) is not None:
             found["protocol"], how["protocol"] = installed["protocol"], text
-        if (text := verify_data(report, installed["data"])) is not None:
-            found["data"], how["data"] = installed["data"], text
+        found["data"], how["data"] = verify_data(report, installed["data"])
         trainer, text = verify_trainer(report, pd.read_csv(folder / "runs.csv"), args.trainer_verified)
         if trainer is not None:
             found["trainer"], how["trainer"] = trainer, text
