@@ -214,7 +214,7 @@ def _section(folder: Path, section: Section | None, version: str) -> list[str]:
     report, scale, name = section.report, section.scale, section.name
     title = f"## `{report['env_id']}`, budget `{budget}`" + (f": {QUICK}" if budget == "quick" else "")
     lines = [title, ""]
-    lines += [currency_line(section.stale), ""]
+    lines += [currency_line(section.stale, report.get("fingerprints_verified")), ""]
     runs = section.runs
     train_s = float(runs["wall_s"].sum()) if runs is not None and len(runs) else 0.0
     lines += [

@@ -10,14 +10,25 @@ import pandas as pd
 NOT_RECORDED = "not recorded"
 
 
-def currency_line(stale: list[str]) -> str:
-    """The section's line on its fingerprints (:func:`gym4real.core.rl.fingerprints.section_changes`)."""
+def currency_line(stale: list[str], verified: dict[str, str] | None = None) -> str:
+    """The section's line on its fingerprints (:func:`gym4real.core.rl.fingerprints.section_changes`).
+
+    ``verified``: for a section trained before sections recorded fingerprints, how each recorded one was
+    verified (``report.json``'s ``fingerprints_verified``, by ``scripts/verify_fingerprints.py``).
+    """
     if not stale:
-        return (
+        line = (
             "**Current**: its test protocol, data and trainer fingerprints equal those of the code that rendered "
             "this page (`gym4real reproduce --check`)."
         )
-    return f"**Stale** (`gym4real reproduce --check`): {'; '.join(stale)}."
+    else:
+        line = f"**Stale** (`gym4real reproduce --check`): {'; '.join(stale)}."
+    if verified:
+        line += " Fingerprints recorded after the run, each where verified: " + "; ".join(
+            f"{part}: {how}" for part, how in verified.items()
+        )
+        line += "."
+    return line
 
 
 def _resumes(text: object) -> str:
