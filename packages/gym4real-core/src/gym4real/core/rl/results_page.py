@@ -28,7 +28,7 @@ from gym4real.core.rl.claims import RULES
 from gym4real.core.rl.fingerprints import section_changes
 from gym4real.core.rl.page_manifest import files_sha256, imported_by_all, section_record
 from gym4real.core.rl.published_models import FOLDER as MODELS
-from gym4real.core.rl.section_provenance import currency_line, run_provenance
+from gym4real.core.rl.section_provenance import currency_line, models_lines, run_provenance
 from gym4real.core.rl.stand_ins import budget_mark, difference_lines
 
 #: The name of a results folder: ``<env>-<budget>``.
@@ -231,6 +231,7 @@ def _section(folder: Path, section: Section | None, version: str) -> list[str]:
         + ", ".join(f"[{f}]({name}/{f})" for f in ("episodes.csv", "runs.csv", "summary.csv", "improvement.csv"))
         + ".",
         "",
+        *models_lines(folder, name),
         "| policy | seeds | episodes | IQM | 95 % interval | mean | spread | mean return | train time | env-steps/s |",
         "|---|---|---|---|---|---|---|---|---|---|",
     ]

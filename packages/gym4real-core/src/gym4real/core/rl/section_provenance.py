@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import pandas as pd
 
@@ -51,3 +52,19 @@ def run_provenance(runs: pd.DataFrame | None, algo: str, seed: int) -> tuple[str
     trained_by = row["trained_by"].iloc[0] if "trained_by" in row else NOT_RECORDED
     trained = f"`{trained_by}`" if isinstance(trained_by, str) and trained_by != NOT_RECORDED else NOT_RECORDED
     return trained, _resumes(row["resumes"].iloc[0] if "resumes" in row else NOT_RECORDED)
+
+
+def models_lines(folder: Path, name: str) -> list[str]:
+    """The section's line on its trained models (``models.json``), and a blank line; none without a listing."""
+    listing_path = folder / "models.json"
+    if not listing_path.exists():
+        return []
+    listing = json.loads(listing_path.read_text())
+    shipped = [m for m in listing if m["published"]]
+    line = (
+        f"Models: {len(shipped)} of {len(listing)} published in [`models/`]({name}/models.json) (each with its "
+        "SHA-256 and the `gym4real evaluate` command that reruns its test episodes)"
+    )
+    if len(shipped) < len(listing):
+        line += "; the others are listed with why and the `gym4real train` command that trains them again"
+    return [line + ".", ""]
