@@ -18,7 +18,9 @@ from gym4real.core.rl.published_models import MAX_BYTES, sha256_of
 RESULTS = Path(__file__).parents[1] / "docs" / "results"
 
 
-@pytest.mark.parametrize(("section", "algo", "seed"), [("dam-v0-paper", "ppo", 123), ("wds-v0-paper", "dqn", 42)])
+@pytest.mark.parametrize(
+    ("section", "algo", "seed"), [("dam-v0-paper", "ppo", 0), ("dam-v0-paper", "ppo", 123), ("wds-v0-paper", "dqn", 42)]
+)
 def test_evaluating_a_published_model_reproduces_its_published_test_episodes(
     section: str, algo: str, seed: int
 ) -> None:
