@@ -22,7 +22,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def _verdict_rows(text: str) -> list[str]:
-    return [line for line in text.splitlines() if re.match(r"\| `[a-z0-9-]+` \| (paper|quick) \|", line)]
+    return [line for line in text.splitlines() if re.match(r"\| `[a-z0-9-]+` \| (paper|quick)[^|]* \|", line)]
 
 
 def test_the_readme_verdicts_are_the_results_pages() -> None:
@@ -151,7 +151,7 @@ def test_every_number_of_the_page_is_recomputed_from_episodes_csv(tmp_path: Path
     diff, low, high = stats.difference_ci(scores["dqn"], scores["default"], True, False, level=1 - 0.05 / 4)
     assert f"IQM dqn - default: {human(stats.snap(diff, scale))} {human_interval(low, high)}" in text
     assert "`p79` is identical to `p78` in every test episode" in text
-    assert "Code version `v1.0-3-gabc1234`" in text and "Flagged" not in text
+    assert "trained at `v1.0-3-gabc1234`" in text and "Trained at code version `v1.0-3-gabc1234`" in text
     assert "gym4real reproduce gym4real/wds-v0 --budget paper --seeds 3 --out results/paper" in text
     claims = json.loads((tmp_path / "page" / "claims.json").read_text())
     spread = next(c for c in claims if c["relation"] == "less_variable")
@@ -223,17 +223,26 @@ def test_the_page_folder_alone_regenerates_the_page(tmp_path: Path) -> None:
     assert write_page(page, page).read_text() == first
 
 
-def test_quick_verdicts_are_pipeline_checks_and_other_versions_are_flagged(tmp_path: Path) -> None:
+def test_quick_verdicts_are_pipeline_checks_and_stale_sections_are_flagged_whatever_their_commit(
+    tmp_path: Path,
+) -> None:
+    from gym4real.core.rl.fingerprints import KEY, fingerprints
+
     out = tmp_path / "out"
-    _results_folder(out, "paper")
-    # a second section (another env's folder name), from another code version
+    paper = _results_folder(out, "paper")
+    report = json.loads((paper / "report.json").read_text())
+    report[KEY] = fingerprints("gym4real/wds-v0", "paper")  # current, though trained by another commit
+    (paper / "report.json").write_text(json.dumps(report))
+    # a second section (another env's folder name), from another code version, with no fingerprints
     _results_folder(tmp_path / "other", "quick", version="v0.9-dirty").rename(out / "zzz-v0-quick")
     text = write_page(out).read_text()
     quick = [line for line in text.splitlines() if line.startswith("| `wds-v0` | quick |")]
-    paper = [line for line in text.splitlines() if line.startswith("| `wds-v0` | paper |")]
+    paper_rows = [line for line in text.splitlines() if line.startswith("| `wds-v0` | paper |")]
     assert quick and all("pipeline check, not a verdict" in line and "**" not in line for line in quick)
-    assert paper and all("**" in line for line in paper)
-    assert "Flagged: from code version `v0.9-dirty`, not the page's `v1.0-3-gabc1234`" in text
+    assert paper_rows and all("**" in line for line in paper_rows)
+    assert "**Stale sections, flagged below: zzz-v0-quick.**" in text
+    assert "**Stale** (`gym4real reproduce --check`): no fingerprints recorded." in text
+    assert text.count("**Current**: its test protocol, data and trainer fingerprints equal") == 1
 
 
 @pytest.mark.parametrize(
@@ -383,3 +392,22 @@ def test_a_published_section_is_decided_again_from_its_episodes_alone(tmp_path: 
     before = json.loads((folder / "claims.json").read_text())
     (folder / "claims.json").write_text("[]")  # claims decided under other rules, or none
     assert recheck(folder) == before == json.loads((folder / "claims.json").read_text())
+
+
+def test_stand_in_sections_are_marked_and_say_how_they_differ_from_the_paper() -> None:
+    from gym4real.core.rl.presets import load_preset
+    from gym4real.core.rl.stand_ins import budget_mark, differences
+
+    results = ROOT / "docs" / "results"
+    trading = json.loads((results / "trading-v0-paper" / "report.json").read_text())
+    microgrid = json.loads((results / "microgrid-v0-paper" / "report.json").read_text())
+    dam = json.loads((results / "dam-v0-paper" / "report.json").read_text())
+    assert budget_mark(trading, "paper") == "paper (**stand-in data**: EUR/USD hourly ask OHLCV; EUR/USD hourly OHLCV)"
+    assert budget_mark(microgrid, "paper") == "paper (**stand-in data**: synthetic `microgrid/demand/train`)"
+    assert budget_mark(dam, "paper") == "paper"  # the paper's own data
+    found = differences(trading, pd.read_csv(results / "trading-v0-paper" / "episodes.csv"))
+    steps = load_preset("gym4real/trading-v0", "ppo", "hourly")["total_timesteps"]
+    paper = load_preset("gym4real/trading-v0", "ppo", "paper")["total_timesteps"]
+    assert f"{100 * steps / paper:.1f} % of the {paper:,} of `ppo/paper`" in "; ".join(found)
+    assert found[0].startswith("data: EUR/USD hourly") and found[-1].startswith("test: 68 episodes")
+    assert differences(dam, pd.read_csv(results / "dam-v0-paper" / "episodes.csv")) == []

@@ -187,7 +187,24 @@ def _cmd_train(args: argparse.Namespace) -> None:
 def _cmd_reproduce(args: argparse.Namespace) -> None:
     from gym4real.core.registry import list_envs
     from gym4real.core.rl.reproduce import reproduce
+    from gym4real.core.rl.run_files import DamagedRunError
 
+    if args.check is not None:
+        from gym4real.core.rl.fingerprints import StaleResultsError, check
+
+        lines, stale = check(args.check)
+        print("\n".join(lines))
+        if stale:
+            raise StaleResultsError(
+                f"{len(stale)} of {len(lines)} sections are stale ({', '.join(stale)}): rerun them with "
+                f"`gym4real reproduce --stale --out OUT` on the output folder they came from"
+            )
+        return
+    if args.stale:
+        from gym4real.core.rl.currency import reproduce_stale
+
+        print(reproduce_stale(Path(args.out), args.env_ids, args.seeds, page=args.page, jobs=args.jobs))
+        return
     if bool(args.env_ids) == args.all:
         raise Gym4RealError("name the environments to reproduce, or pass --all (not both)")
     env_ids = list_envs(multi_objective=False) if args.all else args.env_ids
@@ -199,17 +216,22 @@ def _cmd_reproduce(args: argparse.Namespace) -> None:
 
         print(plan_report(env_ids, args.budget, n_seeds, Path(args.out), args.jobs))
         return
-    text = reproduce(
-        env_ids,
-        args.budget,
-        n_seeds,
-        args.out,
-        progress=not args.quiet,
-        page=args.page,
-        jobs=args.jobs,
-        ray=args.ray,
-        storage=args.storage,
-    )
+    try:
+        text = reproduce(
+            env_ids,
+            args.budget,
+            n_seeds,
+            args.out,
+            progress=not args.quiet,
+            page=args.page,
+            jobs=args.jobs,
+            ray=args.ray,
+            storage=args.storage,
+            retrain_damaged=args.retrain_damaged,
+        )
+    except DamagedRunError as exc:  # the other runs and the page are done: show them, then the error
+        print(exc.report)
+        raise
     print(text)
 
 
@@ -394,6 +416,24 @@ def _parser() -> argparse.ArgumentParser:
     rep.add_argument("--out", default="results/reproduce", help="output folder; finished runs there are reused")
     rep.add_argument("--page", default=None, help="also write the results page and figures into this folder")
     rep.add_argument("--quiet", action="store_true", help="no progress bar")
+    rep.add_argument(
+        "--check",
+        default=None,
+        metavar="DIR",
+        help="say per results section of DIR (an output or page folder) whether it is current with this code "
+        "(its protocol, data and trainer fingerprints) or stale, and what changed; exit 0 only when all are current",
+    )
+    rep.add_argument(
+        "--stale",
+        action="store_true",
+        help="rerun only the stale sections of --out (of the named environments, if any): retrain where the "
+        "data or trainer changed, else test the finished runs again",
+    )
+    rep.add_argument(
+        "--retrain-damaged",
+        action="store_true",
+        help="move a run folder with a damaged file aside (<folder>.damaged-<time>) and train that run again",
+    )
     rep.add_argument(
         "--jobs",
         type=_jobs,

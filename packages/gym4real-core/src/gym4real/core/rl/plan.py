@@ -133,6 +133,8 @@ class Item:
     preset: str
     seed: int
     folder: Path
+    #: A folder with a damaged file is moved aside and the run trained again (else the run is refused).
+    retrain_damaged: bool = False
 
 
 def seeds_flag(env_id: str, budget: str, run_seeds: Sequence[int]) -> str:

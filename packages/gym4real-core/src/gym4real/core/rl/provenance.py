@@ -14,6 +14,7 @@ from typing import Any
 
 import pandas as pd
 
+from gym4real.core.rl.imported import imported_distributions, union
 from gym4real.core.rl.schedules import learning_rate_words
 from gym4real.core.rl.train import TrainingRun
 
@@ -53,6 +54,19 @@ def versions() -> dict[str, str]:
             found[name] = "not installed"
     found["python"] = platform.python_version()
     return dict(sorted(found.items()))
+
+
+def imported(runs: list[TrainingRun]) -> dict[str, str]:
+    """The distributions this process and the ``runs`` (their ``run.json``, where recorded) imported.
+
+    Called at the end of a section's test phase, which loads every model the runs trained; a run trained
+    in another process (``--jobs``, Ray) adds what it recorded at its end.
+    """
+    records = [imported_distributions()]
+    for run in runs:
+        record = json.loads((run.model_path.parent / "run.json").read_text())
+        records.append(record.get("imported", {}))
+    return union(*records)
 
 
 def data_files(env_id: str) -> list[dict[str, Any]]:

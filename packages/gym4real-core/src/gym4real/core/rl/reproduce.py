@@ -37,9 +37,11 @@ import pandas as pd
 from gym4real.core import stats
 from gym4real.core.benchmark import BenchmarkResult, benchmark, protocol
 from gym4real.core.errors import Gym4RealError
-from gym4real.core.rl import analysis, provenance, workspace
+from gym4real.core.rl import analysis, fingerprints, provenance, workspace
 from gym4real.core.rl.plan import Item, SeedRequest, check_request, plan, seeds_flag, slug
 from gym4real.core.rl.progress import PlanProgress
+from gym4real.core.rl.published_models import publish_models
+from gym4real.core.rl.run_files import DamagedRunError, damaged_file
 from gym4real.core.rl.runner import describe_error, train_plan
 from gym4real.core.rl.train import TrainingRun
 
@@ -180,8 +182,10 @@ def reproduce_env(
     """Test the trained ``runs`` of ``env_id`` (one per algorithm and seed), check the claims, write.
 
     Writes into ``OUT/<env>-<budget>/``: ``episodes.csv`` and ``runs.csv`` (the raw data), ``report.json``
-    (command, protocol, code version, versions, data files), then the statistics computed from
-    ``episodes.csv`` alone (:func:`gym4real.core.rl.analysis.analyse`) and the figures.
+    (command, protocol, code version, versions, data files, the fingerprints of
+    :mod:`~gym4real.core.rl.fingerprints` and the distributions the runs imported), the models
+    (:mod:`~gym4real.core.rl.published_models`), then the statistics computed from ``episodes.csv`` alone
+    (:func:`gym4real.core.rl.analysis.analyse`) and the figures.
     """
     from gym4real.core import plots
 
@@ -211,8 +215,10 @@ def reproduce_env(
         "versions": provenance.versions(),
         "platform": platform.platform(),
         "data_files": provenance.data_files(env_id),
+        fingerprints.KEY: fingerprints.fingerprints(env_id, budget),
     }
     (folder / "report.json").write_text(json.dumps(report, indent=1))
+    publish_models(runs, folder, budget)
     claims = analysis.analyse(folder, env_id, budget)
     if workspace.write_placements(folder, env_id):
         workspace.heatmap_figure(folder, env_id)
@@ -221,6 +227,8 @@ def reproduce_env(
         groups.setdefault(run.algo, []).append(run.policy)
     plots.save_figures(pooled(result, groups), folder)
     _curves(runs, folder)
+    report["imported"] = provenance.imported(runs)
+    (folder / "report.json").write_text(json.dumps(report, indent=1))
     return EnvReport(pd.read_csv(folder / "summary.csv"), claims)
 
 
@@ -239,6 +247,7 @@ def reproduce(
     jobs: int = 1,
     ray: bool = False,
     storage: str | None = None,
+    retrain_damaged: bool = False,
 ) -> str:
     """Reproduce the paper's results of ``env_ids``; return a text report (tables and claim verdicts).
 
@@ -256,8 +265,12 @@ def reproduce(
         jobs: Training runs at a time on this machine (:func:`~gym4real.core.rl.runner.train_plan`).
         ray: Run the training runs on Ray instead (:func:`~gym4real.core.rl.cluster.train_on_ray`).
         storage: With ``ray``: where the workers keep the run folders (default ``out``).
+        retrain_damaged: Move a run folder with a damaged file aside and train that run again; without it,
+            such a run is refused (its folder left untouched) and :class:`DamagedRunError` raised at the end.
 
     Raises:
+        DamagedRunError: A run folder holds a damaged file (after the other runs and the page are done;
+            its ``report`` is the text report).
         EnvUnavailableError: An id is not registered (checked before anything runs).
         ConfigError: An unknown budget, or fewer than one seed (checked before anything runs).
     """
@@ -267,7 +280,10 @@ def reproduce(
     errors: dict[str, str] = {}
     for env_id in env_ids:
         try:
-            plans[env_id] = plan(env_id, budget, n_seeds, out)
+            plans[env_id] = [
+                dataclasses.replace(item, retrain_damaged=retrain_damaged)
+                for item in plan(env_id, budget, n_seeds, out)
+            ]
         except Gym4RealError as exc:
             errors[env_id] = " ".join(str(exc).split())
     bar = PlanProgress(sum(len(items) for items in plans.values()) + len(plans), progress)
@@ -310,4 +326,9 @@ def reproduce(
 
     written = write_page(out, page)
     lines.append(f"results in {out}/ (page {written})")
+    damaged = [o.error for o in outcomes if o.run is None and damaged_file(o.item.folder) is not None]
+    if damaged:
+        raise DamagedRunError(
+            f"{len(damaged)} run folder(s) hold a damaged file: {'; '.join(map(str, damaged))}", "\n".join(lines)
+        )
     return "\n".join(lines)

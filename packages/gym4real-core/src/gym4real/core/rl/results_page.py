@@ -11,6 +11,7 @@ folder alone regenerates the page (``write_page(page)``).
 
 from __future__ import annotations
 
+import hashlib
 import json
 import re
 import shutil
@@ -25,7 +26,12 @@ from gym4real.core import stats
 from gym4real.core.numbers import human
 from gym4real.core.rl import analysis, summary_figure, workspace
 from gym4real.core.rl.claims import QUANTITIES, RULES, VERDICTS
+from gym4real.core.rl.fingerprints import section_changes
 from gym4real.core.rl.headroom_page import headroom_table
+from gym4real.core.rl.page_manifest import files_sha256, imported_by_all, section_record
+from gym4real.core.rl.published_models import FOLDER as MODELS
+from gym4real.core.rl.section_provenance import currency_line, models_lines, run_provenance
+from gym4real.core.rl.stand_ins import budget_mark, difference_lines
 
 #: The name of a results folder: ``<env>-<budget>``.
 FOLDER = re.compile(r"^(?P<env>[a-z0-9-]+)-(?P<budget>paper|quick)$")
@@ -40,6 +46,7 @@ PUBLISHED = (
     "learning_curves.csv",
     "error.txt",
     workspace.PLACEMENTS,
+    "models.json",
 )
 _FIGURES = (
     ("cumulative_reward.png", "mean cumulative objective on the test episodes (95 % band)"),
@@ -177,6 +184,7 @@ class Section:
         self.claims: list[dict[str, Any]] = json.loads((folder / "claims.json").read_text())
         self.runs = pd.read_csv(folder / "runs.csv") if (folder / "runs.csv").exists() else None
         self.scale = float(self.episodes["objective"].abs().max())
+        self.stale = section_changes(folder)
 
     @property
     def version(self) -> str:
@@ -259,23 +267,24 @@ def _section(folder: Path, section: Section | None, version: str) -> list[str]:
     report, scale, name = section.report, section.scale, section.name
     title = f"## `{report['env_id']}`, budget `{budget}`" + (f": {QUICK}" if budget == "quick" else "")
     lines = [title, ""]
-    if section.version != version:
-        lines += [f"**Flagged: from code version `{section.version}`, not the page's `{version}`.**", ""]
+    lines += [currency_line(section.stale, report.get("fingerprints_verified")), ""]
     runs = section.runs
     train_s = float(runs["wall_s"].sum()) if runs is not None and len(runs) else 0.0
     lines += [
         f"Test protocol: {report['protocol']}. Objective (the score): {' + '.join(report['objective'])} per episode.",
         "",
         *_data_read(report),
+        *difference_lines(report, section.episodes),
         f"Command (reuses the finished runs of its output folder): `{report['command']}`",
         "",
-        f"Code version `{section.version}`; training presets "
+        f"Trained at code version `{section.version}`; training presets "
         f"{', '.join(f'`{a}/{p}`' for a, p in report['presets'].items())}; seeds "
         f"{', '.join(str(s) for s in report['seeds'])}; training wall time {_duration(train_s)} (sum over runs), "
         f"test {_duration(report['test_wall_time_s'])}. Raw data: "
         + ", ".join(f"[{f}]({name}/{f})" for f in ("episodes.csv", "runs.csv", "summary.csv", "improvement.csv"))
         + ".",
         "",
+        *models_lines(folder, name),
         "| policy | seeds | episodes | IQM | 95 % interval | mean | spread | mean return | train time | env-steps/s |",
         "|---|---|---|---|---|---|---|---|---|---|",
     ]
@@ -304,12 +313,17 @@ def _section(folder: Path, section: Section | None, version: str) -> list[str]:
     seeds = analysis.per_seed(section.episodes, runs)
     if len(seeds):
         lines += ["Per training seed (a failed seed shows here; the pooled IQM can hide it):", ""]
-        lines += ["| policy | seed | IQM | mean | validation-selected checkpoint |", "|---|---|---|---|---|"]
+        lines += [
+            "| policy | seed | IQM | mean | validation-selected checkpoint | trained by | resumed |",
+            "|---|---|---|---|---|---|---|",
+        ]
         for row in seeds.to_dict("records"):
             kept = row.get("selected_at")
             at = f"{int(kept):,} {row['selected_unit']}" if kept == kept and kept is not None else "-"
+            trained_by, resumed = run_provenance(runs, row["policy"], row["seed"])
             lines.append(
-                f"| {row['policy']} | {row['seed']} | {_fmt(row['iqm'], scale)} | {_fmt(row['mean'], scale)} | {at} |"
+                f"| {row['policy']} | {row['seed']} | {_fmt(row['iqm'], scale)} | {_fmt(row['mean'], scale)} | {at} "
+                f"| {trained_by} | {resumed} |"
             )
         lines.append("")
     if len(section.improvement):
@@ -353,8 +367,16 @@ def _section(folder: Path, section: Section | None, version: str) -> list[str]:
     return lines
 
 
-def claims_table(claims: list[dict[str, Any]], scales: dict[str, float] | None = None, own: bool = False) -> str:
-    """A short Markdown table: per claim of the paper (``own``: per own check), verdict, rule, deciding comparison."""
+def claims_table(
+    claims: list[dict[str, Any]],
+    scales: dict[str, float] | None = None,
+    own: bool = False,
+    marks: dict[str, str] | None = None,
+) -> str:
+    """A short Markdown table: per claim of the paper (``own``: per own check), verdict, rule, deciding comparison.
+
+    ``marks``: section name -> its budget column's entry (:func:`~gym4real.core.rl.stand_ins.budget_mark`).
+    """
     claims = [c for c in claims if c.get("paper", True) is not own]
     if not claims:
         return ""
@@ -368,20 +390,21 @@ def claims_table(claims: list[dict[str, Any]], scales: dict[str, float] | None =
         scale = (scales or {}).get(f"{env}-{c['budget']}", 0.0)
         comp = next((x for x in c["comparisons"] if x["b"] == c.get("deciding")), None)
         where = _comparison(c, comp, scale) if comp else "-"
+        budget = (marks or {}).get(f"{env}-{c['budget']}", c["budget"])
         lines.append(
-            f"| `{env}` | {c['budget']} | {c['text']} | {_verdict(c['verdict'], c['budget'])} | {_rule(c)} | {where} |"
+            f"| `{env}` | {budget} | {c['text']} | {_verdict(c['verdict'], c['budget'])} | {_rule(c)} | {where} |"
         )
     return "\n".join(lines) + "\n"
 
 
-def _verdicts(claims: list[dict[str, Any]], scales: dict[str, float]) -> list[str]:
+def _verdicts(claims: list[dict[str, Any]], scales: dict[str, float], marks: dict[str, str]) -> list[str]:
     """The verdict tables (the paper's claims, then this suite's own checks) and the three verdicts' definitions."""
     paper = sum(c.get("paper", True) for c in claims)
-    own = claims_table(claims, scales, own=True)
+    own = claims_table(claims, scales, own=True, marks=marks)
     return [
         f"## Verdicts on the paper's claims ({paper})",
         "",
-        claims_table(claims, scales),
+        claims_table(claims, scales, marks=marks),
         *(
             [
                 "Checks of this suite's own, outside the paper's claims: the paper does not make them.",
@@ -507,28 +530,45 @@ def suite_scores(sections: list[Section]) -> list[str]:
 
 
 def manifest(sections: list[Section], version: str) -> dict[str, Any]:
-    """``manifest.json``: the page's code version, each section's, package versions, platform, data files."""
+    """``manifest.json``: the page's code version, each section's, package versions, platform, data files.
+
+    ``rendered_by`` is the code that wrote the page; ``provenance`` holds per section its command,
+    fingerprints, the distributions it imported, its models and the SHA-256 of every file it publishes
+    (:mod:`~gym4real.core.rl.page_manifest`); ``imported`` is their union.
+    """
+    from gym4real.core.rl.provenance import code_version
+
     main = next((s for s in sections if s.version == version), None)
+    records = {s.name: section_record(s.folder, s.report, published_files(s.folder), s.stale) for s in sections}
     return {
         "code_version": version,
+        "rendered_by": code_version(),
         "sections": {s.name: s.version for s in sections},
+        "imported": imported_by_all(records),
+        "provenance": records,
         "versions": main.report["versions"] if main else {},
         "platform": main.report["platform"] if main else "",
         "data_files": {s.name: s.report["data_files"] for s in sections},
     }
 
 
+def published_files(folder: Path) -> list[Path]:
+    """The files of a results folder that the page folder holds: data, statistics, figures and models."""
+    files = [folder / f for f in PUBLISHED] + [folder / f for f, _ in _FIGURES]
+    models = sorted(p for p in (folder / MODELS).rglob("*") if p.is_file()) if (folder / MODELS).is_dir() else []
+    return [f for f in files if f.exists()] + models
+
+
 def _publish(folder: Path, page: Path) -> None:
-    """Copy a results folder's published files and figures into ``page/<env>-<budget>/``."""
+    """Copy a results folder's published files, figures and models into ``page/<env>-<budget>/``."""
     target = page / folder.name
     if target.resolve() == folder.resolve():
         return
     shutil.rmtree(target, ignore_errors=True)
-    files = [folder / f for f in PUBLISHED] + [folder / f for f, _ in _FIGURES]
-    for file in files:
-        if file.exists():
-            target.mkdir(parents=True, exist_ok=True)
-            shutil.copy(file, target / file.name)
+    for file in published_files(folder):
+        copy = target / file.relative_to(folder)
+        copy.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(file, copy)
 
 
 def write_page(out: Path, page: str | Path | None = None) -> Path:
@@ -540,17 +580,18 @@ def write_page(out: Path, page: str | Path | None = None) -> Path:
     version = counts.most_common(1)[0][0] if counts else "none"
     claims = [c for s in sections.values() for c in s.claims]
     scales = {s.name: s.scale for s in sections.values()}
+    marks = {s.name: budget_mark(s.report, s.budget) for s in sections.values()}
     record = manifest(list(sections.values()), version)
-    others = [s.name for s in sections.values() if s.version != version]
+    others = [s.name for s in sections.values() if s.stale]
     head = [
         "# Reproduced results",
         "",
-        f"Code version `{version}` (`manifest.json`). "
-        + (f"**Sections from other code versions, flagged below: {', '.join(others)}.** " if others else "")
+        f"Rendered by code version `{record['rendered_by']}`; most sections trained at `{version}` (`manifest.json`). "
+        + (f"**Stale sections, flagged below: {', '.join(others)}.** " if others else "")
         + f"Versions: {', '.join(f'{k} {v}' for k, v in record['versions'].items())}; {record['platform']}.",
         "",
         *_summary_figure(list(sections.values()), out),
-        *_verdicts(claims, scales),
+        *_verdicts(claims, scales, marks),
         *suite_scores(list(sections.values())),
         *headroom_table(list(sections.values())),
     ]
@@ -560,7 +601,13 @@ def write_page(out: Path, page: str | Path | None = None) -> Path:
     text = "\n".join(head + body + _method())
     (out / "results.md").write_text(text)
     (out / "claims.json").write_text(json.dumps(claims, indent=1))
-    (out / "claims.md").write_text(claims_table(claims, scales) + claims_table(claims, scales, own=True))
+    (out / "claims.md").write_text(
+        claims_table(claims, scales, marks=marks) + claims_table(claims, scales, True, marks)
+    )
+    record["files"] = {  # the page's own files (a page folder's index.md is results.md)
+        **files_sha256([out / "claims.json"], out),
+        "index.md": hashlib.sha256(text.encode()).hexdigest(),
+    }
     (out / "manifest.json").write_text(json.dumps(record, indent=1))
     if page is None:
         return out / "results.md"

@@ -31,6 +31,7 @@ from typing import Any
 from gym4real.core.errors import Gym4RealError
 from gym4real.core.rl.plan import Item, slug
 from gym4real.core.rl.progress import PlanProgress, Progress
+from gym4real.core.rl.run_files import check_run_folder
 from gym4real.core.rl.train import TrainingRun, finished_run, train
 
 #: Environment variables that limit a worker's numerical libraries to one thread; a worker process
@@ -80,7 +81,12 @@ def available_cpus() -> int:
 
 
 def run_item(item: Item, progress: Progress | None = None) -> TrainingRun:
-    """Train one run of a plan, or reuse the finished run in its folder."""
+    """Train one run of a plan, or reuse the finished run in its folder.
+
+    Raises:
+        DamagedRunError: A file of the run's folder cannot be read (unless ``item.retrain_damaged``).
+    """
+    check_run_folder(item.folder, describe_item(item), item.retrain_damaged)
     run = finished_run(item.folder, item.env_id, item.algo, item.preset, item.seed)
     if run is not None:
         return run

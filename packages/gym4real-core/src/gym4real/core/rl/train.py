@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from gym4real.core.errors import ConfigError
+from gym4real.core.rl.imported import imported_distributions
 from gym4real.core.rl.plan import slug
 from gym4real.core.rl.presets import is_preset_file, load_preset
 from gym4real.core.rl.progress import Progress
@@ -200,6 +201,7 @@ def train(
         "steps_per_s": run.steps_per_s,
         "versions": versions(),
         "resumes": resumes,
+        "imported": imported_distributions(),
     }
     (folder / "run.json").write_text(json.dumps(record, indent=1))
     (folder / RESUMES).unlink(missing_ok=True)

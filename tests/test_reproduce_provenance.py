@@ -1,0 +1,188 @@
+"""`gym4real reproduce`: damaged run files, published models, fingerprints (`--check`, `--stale`), manifest."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from gym4real.core.rl import fingerprints
+from gym4real.core.rl.published_models import sha256_of
+
+ROOT = Path(__file__).parents[1]
+RESULTS = ROOT / "docs" / "results"
+
+
+def _cli(*args: str, plugins: str = "elevator") -> subprocess.CompletedProcess[str]:
+    others = {"dam", "elevator", "microgrid", "robofeeder", "trading", "wds"} - set(plugins.split(","))
+    env = {**os.environ, "GYM4REAL_DISABLE_PLUGINS": ",".join(sorted(others))}
+    return subprocess.run(
+        [sys.executable, "-m", "gym4real.core.cli", "reproduce", *args],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=False,
+    )
+
+
+def _snapshot(folder: Path) -> dict[str, tuple[bytes, int]]:
+    return {
+        p.relative_to(folder).as_posix(): (p.read_bytes(), p.stat().st_mtime_ns)
+        for p in folder.rglob("*")
+        if p.is_file()
+    }
+
+
+@pytest.fixture(scope="module")
+def elevator_quick(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """An output folder of `reproduce gym4real/elevator-v0 --budget quick --seeds 1` (tabular, seconds)."""
+    out = tmp_path_factory.mktemp("reproduce") / "out"
+    done = _cli("gym4real/elevator-v0", "--budget", "quick", "--seeds", "1", "--out", str(out), "--quiet")
+    assert done.returncode == 0, done.stderr
+    return out
+
+
+def test_a_truncated_qtable_stops_reproduce_naming_the_file_and_leaves_the_folder(
+    elevator_quick: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "out"
+    shutil.copytree(elevator_quick, out)
+    run = out / "elevator-v0" / "quick" / "runs" / "qlearning" / "seed42"
+    table = run / "qtable.npz"
+    table.write_bytes(table.read_bytes()[: table.stat().st_size // 2])
+    before = _snapshot(run)
+    done = _cli("gym4real/elevator-v0", "--budget", "quick", "--seeds", "1", "--out", str(out), "--quiet")
+    assert done.returncode != 0
+    assert "qtable.npz" in done.stderr and "elevator-v0 qlearning seed 42" in done.stderr, done.stderr
+    assert "--retrain-damaged" in done.stderr
+    assert _snapshot(run) == before  # the damaged folder is left untouched, bytes and times
+
+    again = _cli(
+        "gym4real/elevator-v0", "--budget", "quick", "--seeds", "1", "--out", str(out), "--quiet", "--retrain-damaged"
+    )
+    assert again.returncode == 0, again.stderr
+    aside = [p for p in run.parent.iterdir() if p.name.startswith("seed42.damaged-")]
+    assert len(aside) == 1 and _snapshot(aside[0]).keys() == before.keys()
+    assert (aside[0] / "qtable.npz").read_bytes() == before["qtable.npz"][0]
+    first = elevator_quick / "elevator-v0" / "quick" / "runs" / "qlearning" / "seed42" / "qtable.npz"
+    with np.load(run / "qtable.npz") as fresh, np.load(first) as old:  # trained again, to the same table
+        assert np.array_equal(fresh["q"], old["q"])
+
+
+@pytest.mark.parametrize(
+    ("name", "cut"),
+    [("run.json", 10), ("checkpoint.npz", 40), ("checkpoint/state.json", 5)],
+)
+def test_every_damaged_run_file_is_named_with_its_run(tmp_path: Path, name: str, cut: int) -> None:
+    from gym4real.core.rl.run_files import DamagedRunError, check_run_folder
+
+    run = tmp_path / "seed3"
+    (run / "checkpoint").mkdir(parents=True)
+    (run / "run.json").write_text(json.dumps({"model": "qtable.npz", "wall_time_s": 1.0}))
+    (run / "checkpoint" / "state.json").write_text(json.dumps({"timesteps": 4096, "slot": "a"}))
+    np.savez(run / "checkpoint.npz", q=np.arange(100.0), episode=np.array(7))
+    check_run_folder(run, "dam-v0 ppo seed 3")  # whole files pass
+    path = run / name
+    path.write_bytes(path.read_bytes()[:cut])
+    before = _snapshot(run)
+    with pytest.raises(DamagedRunError, match=rf"run `dam-v0 ppo seed 3`: its file `{name}`"):
+        check_run_folder(run, "dam-v0 ppo seed 3")
+    assert _snapshot(run) == before
+
+
+def test_a_section_lists_and_publishes_its_models_and_evaluate_reruns_them(elevator_quick: Path) -> None:
+    from gym4real.core.evaluate import evaluate
+
+    section = elevator_quick / "elevator-v0-quick"
+    listing = json.loads((section / "models.json").read_text())
+    assert [(m["algo"], m["seed"], m["published"]) for m in listing] == [("qlearning", 42, True), ("sarsa", 42, True)]
+    episodes = pd.read_csv(section / "episodes.csv")
+    for model in listing:
+        path = section / model["path"]
+        assert [f["sha256"] for f in model["files"]] == [sha256_of(path)]
+        trained = elevator_quick / "elevator-v0" / "quick" / "runs" / model["algo"] / "seed42" / "qtable.npz"
+        assert path.read_bytes() == trained.read_bytes()
+        result = evaluate({"published": f"{model['algo']}:{path}"}, ["gym4real/elevator-v0"], seeds=[42])
+        mine = result.envs["gym4real/elevator-v0"].episodes.sort_values("episode")
+        theirs = episodes[(episodes["policy"] == model["algo"]) & (episodes["seed"] == 42)].sort_values("episode")
+        assert mine["objective"].tolist() == theirs["objective"].tolist()  # exactly, episode by episode
+    manifest = json.loads((elevator_quick / "manifest.json").read_text())
+    files = manifest["provenance"]["elevator-v0-quick"]["files"]
+    assert files["elevator-v0-quick/models/qlearning-seed42/qtable.npz"] == listing[0]["files"][0]["sha256"]
+    for relative, digest in files.items():  # every published file, hashed as it is
+        assert sha256_of(elevator_quick / relative) == digest
+    assert {"episodes.csv", "runs.csv", "report.json", "models.json"} <= {Path(f).name for f in files}
+
+
+def test_the_manifest_lists_the_distributions_the_runs_imported(elevator_quick: Path) -> None:
+    from importlib import metadata
+
+    manifest = json.loads((elevator_quick / "manifest.json").read_text())
+    imported = manifest["provenance"]["elevator-v0-quick"]["imported"]
+    assert imported == manifest["imported"]
+    for dist in ("numpy", "gymnasium", "pydantic", "PyYAML", "matplotlib", "pandas"):  # all used by a run
+        assert imported[dist] == metadata.version(dist), dist
+    assert "torch" not in imported  # a tabular section never imports torch
+    runs = pd.read_csv(elevator_quick / "elevator-v0-quick" / "runs.csv")
+    assert runs["resumes"].tolist() == ["[]", "[]"] and runs["trained_by"].str.len().gt(0).all()
+
+
+def test_a_fresh_section_is_current_and_a_changed_fingerprint_makes_it_stale(
+    elevator_quick: Path, tmp_path: Path
+) -> None:
+    done = _cli("--check", str(elevator_quick))
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "elevator-v0-quick: current"
+    out = tmp_path / "out"
+    shutil.copytree(elevator_quick, out)
+    report_path = out / "elevator-v0-quick" / "report.json"
+    report = json.loads(report_path.read_text())
+    report["fingerprints"]["trainer"]["trainer_version"] = 0
+    report["fingerprints"]["protocol"]["episodes_sha256"] = "0" * 64
+    report_path.write_text(json.dumps(report))
+    done = _cli("--check", str(out))
+    assert done.returncode != 0
+    line = done.stdout.strip()
+    assert line.startswith("elevator-v0-quick: stale: ")
+    assert "protocol.episodes_sha256 changed" in line and "trainer.trainer_version: 0 -> 1" in line
+    assert "1 of 1 sections are stale" in done.stderr
+
+    runs = out / "elevator-v0" / "quick" / "runs"
+    stale = _cli("--stale", "--out", str(out), "--quiet")
+    assert stale.returncode == 0, stale.stderr
+    assert "elevator-v0-quick: stale" in stale.stdout and "trained again" in stale.stdout
+    assert len(list(runs.parent.glob("runs.stale-*"))) == 1 and (runs / "qlearning" / "seed42" / "run.json").exists()
+    assert _cli("--check", str(out)).returncode == 0
+    assert "current, not rerun" in _cli("--stale", "--out", str(out), "--quiet").stdout
+
+
+def test_a_protocol_change_alone_retests_the_finished_runs(elevator_quick: Path, tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    shutil.copytree(elevator_quick, out)
+    report_path = out / "elevator-v0-quick" / "report.json"
+    report = json.loads(report_path.read_text())
+    report["fingerprints"]["protocol"]["episodes"] = 1
+    report_path.write_text(json.dumps(report))
+    run = out / "elevator-v0" / "quick" / "runs" / "qlearning" / "seed42" / "qtable.npz"
+    stamp = run.stat().st_mtime_ns
+    done = _cli("--stale", "--out", str(out), "--quiet")
+    assert done.returncode == 0, done.stderr
+    assert "protocol.episodes: 1 -> " in done.stdout and "trained again" not in done.stdout
+    assert run.stat().st_mtime_ns == stamp  # reused, not trained again
+    assert _cli("--check", str(out)).returncode == 0
+
+
+def test_changes_name_each_part_that_differs() -> None:
+    recorded = {"protocol": {"episodes": 13}, "data": {"dam/mef": "a" * 64}, "trainer": {"torch": "2.13.0"}}
+    installed = {"protocol": {"episodes": 13}, "data": {"dam/mef": "b" * 64}, "trainer": {"torch": "2.14.0"}}
+    assert fingerprints.changes(recorded, installed) == ["data.dam/mef changed", "trainer.torch: '2.13.0' -> '2.14.0'"]
+    assert fingerprints.changes(recorded, recorded) == []
+    assert fingerprints.changes(None, installed) == ["no fingerprints recorded"]
