@@ -40,8 +40,8 @@ def headroom_table(sections: list[Section]) -> list[str]:
             )
             continue
         spec = protocol(env_id)
-        anchors = {p: stats.iqm(m) for p, m in scores.items() if not seeds[p]}
-        scale = suite_score.scale(env_id, anchors, spec.rule_based)
+        baselines = {p: m for p, m in scores.items() if not seeds[p]}
+        scale = suite_score.scale(env_id, baselines, spec.rule_based)
         agents = {p: m for p, m in scores.items() if seeds[p]}
         best_agent = max(agents, key=lambda p: stats.iqm(agents[p]), default=None)
         best_rule = f"`{scale.best}` {_num(scale.top)}" if scale.best else "-"
