@@ -35,9 +35,8 @@ import gymnasium as gym
 import pandas as pd
 
 import gym4real
-from gym4real.core.registry import registry
+from gym4real.core.registry import MARK, non_causal, registry
 from gym4real.core.specs import FLAGS
-from gym4real.core.upper_reference import MARK, non_causal
 
 DOCS = Path(__file__).resolve().parent
 CORE = DOCS.parent / "packages" / "gym4real-core"

@@ -11,8 +11,8 @@ from gym4real.core import stats, suite_score
 from gym4real.core.cli import main
 from gym4real.core.errors import ConfigError
 from gym4real.core.info import summary, summary_text
-from gym4real.core.registry import list_envs, registry
-from gym4real.core.upper_reference import PlanCache, check_agent, check_protocol, headroom, non_causal
+from gym4real.core.registry import list_envs, non_causal, registry
+from gym4real.core.upper_reference import PlanCache, check_agent, check_protocol, headroom
 
 TRADING = "gym4real/trading-v0"
 

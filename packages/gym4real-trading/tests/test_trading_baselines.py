@@ -26,7 +26,7 @@ def test_registration_matches_the_manifest_and_presets() -> None:
         assert manifest[f"./{spec.path}"] == spec.sha256
         assert hashlib.sha256((SHARED / spec.path).read_bytes()).hexdigest() == spec.sha256
     assert sorted(reg.envs[ENV_ID].presets) == TradingConfig.presets()
-    assert sorted(reg.baselines[ENV_ID]) == ["buy_and_hold", "flat", "random", "sell_and_hold"]
+    assert sorted(reg.baselines[ENV_ID]) == ["buy_and_hold", "flat", "hindsight", "random", "sell_and_hold"]
     assert {(a, p) for (e, a, p) in reg.trainings if e == ENV_ID} == {
         (a, p) for a in ("ppo", "dqn") for p in ("paper", "smoke", "hourly")
     }

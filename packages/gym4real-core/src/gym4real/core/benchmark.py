@@ -29,7 +29,7 @@ import pandas as pd
 from gym4real.core import stats
 from gym4real.core.errors import ConfigError
 from gym4real.core.policies import baseline_names, make_policy
-from gym4real.core.registry import base_env, env_spec, load_object, registry
+from gym4real.core.registry import MARK, base_env, env_spec, load_object, non_causal, registry
 from gym4real.core.specs import BenchmarkSpec
 from gym4real.wrappers.multi_objective import MultiObjective
 
@@ -278,8 +278,6 @@ def _seeds_text(seeds: Sequence[Any]) -> str:
 
 def _planned_notes(result: BenchmarkResult) -> list[str]:
     """Per planner (an upper reference): its planned objective beside the replayed one, and what it is."""
-    from gym4real.core.upper_reference import MARK, non_causal
-
     notes = [
         f"{result.labels[name]}: {MARK}, knows what no agent can know in advance (not a baseline to beat)"
         for name in result.returns

@@ -190,7 +190,7 @@ def _cmd_reproduce(args: argparse.Namespace) -> None:
     from gym4real.core.rl.run_files import DamagedRunError
 
     if args.check is not None:
-        from gym4real.core.rl.fingerprints import StaleResultsError, check
+        from gym4real.core.rl.currency import StaleResultsError, check
 
         lines, stale = check(args.check)
         print("\n".join(lines))

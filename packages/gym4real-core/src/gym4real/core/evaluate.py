@@ -30,7 +30,7 @@ from gym4real.core.benchmark import benchmark, protocol, run_episode
 from gym4real.core.errors import ConfigError, PolicyError
 from gym4real.core.policies import baseline_names, build_policy, is_user_object, make_policy, user_policy
 from gym4real.core.reference import check_fingerprint, fingerprint, load_reference
-from gym4real.core.registry import list_envs, load_object, registry
+from gym4real.core.registry import MARK, list_envs, load_object, non_causal, registry
 from gym4real.core.rl.plan import SeedRequest, slug
 from gym4real.core.rl.plan import seeds as plan_seeds
 
@@ -187,7 +187,7 @@ class Evaluation:
                     lines.append(f"   P({agent} > {other}) = {p:.3f} [{p_low:.3f}, {p_high:.3f}]")
                 for upper, room in rec["headroom"].items():
                     lines.append(
-                        f"   shortfall of {agent} from {upper} ({upper_reference.MARK}): IQM {room['shortfall']:.5g} "
+                        f"   shortfall of {agent} from {upper} ({MARK}): IQM {room['shortfall']:.5g} "
                         f"[{room['low']:.5g}, {room['high']:.5g}]"
                     )
             lines.append("")
@@ -413,10 +413,10 @@ def evaluate(
                 scores[policy] = matrix
                 run_seeds[policy] = reference.seeds[policy]
                 kinds[policy] = "reference" if reference.seeds[policy] else "baseline"
-                if policy in upper_reference.non_causal(env_id):
+                if policy in non_causal(env_id):
                     kinds[policy] = "upper"
         registered = baseline_names(env_id)
-        upper = [b for b in upper_reference.non_causal(env_id) if b not in scores]
+        upper = [b for b in non_causal(env_id) if b not in scores]
         missing_upper = upper if headroom else []
         missing = [
             b

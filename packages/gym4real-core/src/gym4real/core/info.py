@@ -44,8 +44,7 @@ class EnvInfo:
 def env_info(env_id: str) -> EnvInfo:
     """Return the record of an installed environment (raises a helpful error for an unknown id)."""
     from gym4real.core.policies import baseline_names
-    from gym4real.core.registry import load_object
-    from gym4real.core.upper_reference import non_causal
+    from gym4real.core.registry import load_object, non_causal
 
     spec = env_spec(env_id)
     reg = registry()
@@ -156,7 +155,7 @@ def _listing(names: list[str] | tuple[str, ...], most: int = 8) -> str:
 
 def _baselines(record: dict[str, Any]) -> str:
     """The baselines, each non-causal one marked as the upper reference it is."""
-    from gym4real.core.upper_reference import MARK
+    from gym4real.core.registry import MARK
 
     upper = list(record.get("non_causal", ()))
     text = _listing([b for b in record["baselines"] if b not in upper])

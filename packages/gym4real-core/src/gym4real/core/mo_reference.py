@@ -260,7 +260,8 @@ def load(env_id: str, folder: str | Path | None = None, check: bool = True) -> M
         {name: _front(name, entry) for name, entry in record["fronts"].items()},
         record["fingerprint"],
         record,
-        str(path),
+        # shipped files by their package and name, never a path of this machine (as the reference runs do)
+        str(path) if folder is not None else f"{domain_package(base_env(env_id))}: {FOLDER}/{path.name}",
     )
 
 

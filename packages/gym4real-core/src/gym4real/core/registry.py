@@ -532,3 +532,13 @@ def register_envs() -> list[str]:
         if old is None or old.entry_point != UNAVAILABLE:
             gymnasium.register(id=env_id, entry_point=UNAVAILABLE, kwargs={"env_id": env_id}, disable_env_checker=True)
     return done
+
+
+#: How a non-causal baseline (``BaselineSpec.causal`` False) is named wherever baselines are listed.
+MARK = "non-causal upper reference"
+
+
+def non_causal(env_id: str) -> list[str]:
+    """The non-causal baselines (upper references) registered for an environment, sorted."""
+    specs = registry().baselines.get(base_env(env_id), {})
+    return sorted(name for name, spec in specs.items() if not spec.causal)

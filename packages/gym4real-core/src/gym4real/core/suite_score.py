@@ -107,7 +107,7 @@ def scale(env_id: str, baselines: Mapping[str, np.ndarray], rule_based: Sequence
             baseline on the same test episodes.
         rule_based: The environment's rule-based baselines (``BenchmarkSpec.rule_based``).
     """
-    from gym4real.core.upper_reference import non_causal
+    from gym4real.core.registry import non_causal
 
     scores = {name: np.atleast_2d(np.asarray(m, dtype=float)) for name, m in baselines.items()}
     iqms = {name: stats.iqm(m) for name, m in scores.items()}

@@ -31,18 +31,10 @@ import gymnasium as gym
 import numpy as np
 
 from gym4real.core.errors import ConfigError
-from gym4real.core.registry import base_env, registry
+from gym4real.core.registry import base_env, non_causal, registry
 
 #: The name a domain gives its hindsight planner.
 HINDSIGHT = "hindsight"
-#: How tables and pages mark a non-causal baseline.
-MARK = "non-causal upper reference"
-
-
-def non_causal(env_id: str) -> list[str]:
-    """The non-causal baselines (upper references) registered for an environment, sorted."""
-    specs = registry().baselines.get(base_env(env_id), {})
-    return sorted(name for name, spec in specs.items() if not spec.causal)
 
 
 def check_protocol(env_id: str) -> None:

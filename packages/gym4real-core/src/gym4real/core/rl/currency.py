@@ -18,6 +18,11 @@ from gym4real.core.errors import Gym4RealError
 from gym4real.core.rl.fingerprints import section_changes
 from gym4real.core.rl.plan import slug
 
+
+class StaleResultsError(Gym4RealError):
+    """Some results sections are not current with the installed code (``reproduce --check``)."""
+
+
 #: Changes that only need the finished runs tested again.
 RETEST_ONLY = ("protocol",)
 
@@ -72,3 +77,21 @@ def reproduce_stale(
         seeds = n_seeds if n_seeds is not None else len(report["seeds"]) or None
         lines.append(reproduce([env_id], budget, seeds, out, page=page, jobs=jobs))
     return "\n".join(lines)
+
+
+def check(out: str | Path) -> tuple[list[str], list[str]]:
+    """``reproduce --check``: one line per results section of ``out``, and the stale sections' names."""
+    from gym4real.core.rl.results_page import FOLDER
+
+    out = Path(out)
+    if not out.is_dir():
+        raise Gym4RealError(f"`{out}` is not a folder: pass the output folder of `gym4real reproduce` or a page folder")
+    lines, stale = [], []
+    for folder in sorted(p for p in out.iterdir() if p.is_dir() and FOLDER.match(p.name)):
+        found = section_changes(folder)
+        lines.append(f"{folder.name}: current" if not found else f"{folder.name}: stale: {'; '.join(found)}")
+        if found:
+            stale.append(folder.name)
+    if not lines:
+        raise Gym4RealError(f"`{out}` holds no results section (`<env>-<budget>/`)")
+    return lines, stale

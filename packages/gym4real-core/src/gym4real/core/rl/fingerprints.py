@@ -40,10 +40,6 @@ KEY = "fingerprints"
 PARTS = ("protocol", "data", "trainer")
 
 
-class StaleResultsError(Gym4RealError):
-    """Some results sections are not current with the installed code (``reproduce --check``)."""
-
-
 def _sha256_json(value: Any) -> str:
     return hashlib.sha256(json.dumps(value, sort_keys=True, default=str).encode()).hexdigest()
 
@@ -147,21 +143,3 @@ def section_changes(folder: Path) -> list[str]:
     except Gym4RealError as exc:
         return [f"cannot be fingerprinted here: {' '.join(str(exc).split())}"]
     return changes(report.get(KEY), installed)
-
-
-def check(out: str | Path) -> tuple[list[str], list[str]]:
-    """``reproduce --check``: one line per results section of ``out``, and the stale sections' names."""
-    from gym4real.core.rl.results_page import FOLDER
-
-    out = Path(out)
-    if not out.is_dir():
-        raise Gym4RealError(f"`{out}` is not a folder: pass the output folder of `gym4real reproduce` or a page folder")
-    lines, stale = [], []
-    for folder in sorted(p for p in out.iterdir() if p.is_dir() and FOLDER.match(p.name)):
-        found = section_changes(folder)
-        lines.append(f"{folder.name}: current" if not found else f"{folder.name}: stale: {'; '.join(found)}")
-        if found:
-            stale.append(folder.name)
-    if not lines:
-        raise Gym4RealError(f"`{out}` holds no results section (`<env>-<budget>/`)")
-    return lines, stale

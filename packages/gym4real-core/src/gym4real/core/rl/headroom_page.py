@@ -24,11 +24,12 @@ def headroom_table(sections: list[Section]) -> list[str]:
     from gym4real.core import stats, suite_score, upper_reference
     from gym4real.core.benchmark import protocol
     from gym4real.core.episodes import score_matrices
+    from gym4real.core.registry import non_causal
 
     rows: list[str] = []
     for section in sections:
         env_id = section.report["env_id"]
-        upper = upper_reference.non_causal(env_id)
+        upper = non_causal(env_id)
         if section.budget != "paper" or not upper:
             continue
         scores, seeds = score_matrices(section.episodes, section.name)

@@ -193,7 +193,7 @@ def reproduce_env(
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "error.txt").unlink(missing_ok=True)
     spec = protocol(env_id)
-    from gym4real.core.upper_reference import non_causal
+    from gym4real.core.registry import non_causal
 
     baselines = list(dict.fromkeys([*spec.policies, *non_causal(env_id)]))  # with the upper references: headroom
     test_start = time.perf_counter()
