@@ -158,14 +158,7 @@ class Evaluation:
             scale = result.scale
             objective = " + ".join(protocol(env_id).objective) or "the episode return"
             lines.append(f"   objective (the score, higher is better): {objective}, per test episode")
-            if scale.usable and scale.difference is not None:
-                estimate, d_low, d_high = scale.difference
-                lines.append(
-                    f"   scale: 0 = random ({scale.random:.6g}), 1 = {scale.best} ({scale.top:.6g}); separated: "
-                    f"IQM {scale.best} - random = {estimate:.5g} [{d_low:.5g}, {d_high:.5g}]"
-                )
-            else:
-                lines.append(f"   no normalised scale: {scale.note}")
+            lines.append(f"   {scale.words()}")
             records = {a: result.record(a) for a in self.agents if a in result.scores}
             heads = f"{'objective IQM [95% CI]':>36s} {'normalised IQM [95% CI]':>32s}"
             lines.append(f"   {'policy':24s} {'kind':9s} {'seeds':>5s} {heads}")

@@ -155,14 +155,8 @@ def write_report(evaluation: Evaluation, out: Path, figure_names: list[str]) -> 
     for env_id, result in evaluation.envs.items():
         scale = result.scale
         lines += [f"## `{env_id}`", "", f"Reference runs: {result.reference}.", ""]
-        if scale.usable and scale.difference is not None:
-            estimate, d_low, d_high = scale.difference
-            lines.append(
-                f"Scale: 0 = `random` ({scale.random:.6g}), 1 = `{scale.best}` ({scale.top:.6g}); its anchors are "
-                f"separated: IQM `{scale.best}` - `random` = {estimate:.5g} [{d_low:.5g}, {d_high:.5g}]."
-            )
-        else:
-            lines.append(f"No normalised scale: {scale.note}; left out of the suite score.")
+        words = scale.words("`")
+        lines.append(words[0].upper() + words[1:] + ("." if scale.usable else "; left out of the suite score."))
         lines += [
             "",
             "| agent | seeds | objective IQM [95 % CI] | normalised IQM [95 % CI] | P(improvement) [95 % CI] "

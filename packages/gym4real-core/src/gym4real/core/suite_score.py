@@ -88,6 +88,21 @@ class Scale:
         """Whether the 1-anchor beats the 0-anchor with a 95 % interval of their difference above 0."""
         return self.difference is not None and self.difference[1] > 0
 
+    def words(self, quote: str = "") -> str:
+        """The scale in words: its anchors and their separated difference, or why the env has none.
+
+        Args:
+            quote: Put around policy names (a backtick in Markdown).
+        """
+        if not self.usable or self.difference is None:
+            return f"no normalised scale: {self.note}"
+        estimate, low, high = self.difference
+        zero, one = f"{quote}{ZERO}{quote}", f"{quote}{self.best}{quote}"
+        return (
+            f"scale: 0 = {zero} ({self.random:.6g}), 1 = {one} ({self.top:.6g}); separated: "
+            f"IQM {one} - {zero} = {estimate:.5g} [{low:.5g}, {high:.5g}]"
+        )
+
     def record(self) -> dict[str, Any]:
         """The scale as ``score.json`` gives it: ``{"zero", "one", "separated", "difference": [low, high]}``."""
         interval = None if self.difference is None else [self.difference[1], self.difference[2]]
