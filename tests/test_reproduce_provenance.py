@@ -186,3 +186,12 @@ def test_changes_name_each_part_that_differs() -> None:
     assert fingerprints.changes(recorded, installed) == ["data.dam/mef changed", "trainer.torch: '2.13.0' -> '2.14.0'"]
     assert fingerprints.changes(recorded, recorded) == []
     assert fingerprints.changes(None, installed) == ["no fingerprints recorded"]
+
+
+def test_a_data_file_found_nowhere_here_is_named_missing_not_changed() -> None:
+    rows = [{"name": "microgrid/demand/train", "sha256": "86d0" * 16, "found": "no"}]  # nor a stand-in here
+    installed = {"data": fingerprints.data_fingerprint(rows)}
+    recorded = {"data": {"microgrid/demand/train": "29e7" * 16}}  # the stand-in the run read
+    assert fingerprints._differences(recorded["data"], installed["data"], "data") == [
+        "data.microgrid/demand/train: not found here"
+    ]

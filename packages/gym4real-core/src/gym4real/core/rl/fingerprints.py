@@ -58,12 +58,22 @@ def protocol_fingerprint(env_id: str) -> dict[str, Any]:
         env.close()
 
 
+#: The data fingerprint of a file found nowhere here (nor a stand-in in its place): no copy to hash.
+NOT_FOUND = "not found here"
+
+
 def data_fingerprint(data_files: list[dict[str, Any]]) -> dict[str, str]:
-    """Data file name -> the SHA-256 of the copy read (``provenance.data_files`` rows; a stand-in's if read)."""
+    """Data file name -> the SHA-256 of the copy read (``provenance.data_files`` rows; a stand-in's if read).
+
+    A file with no copy here is :data:`NOT_FOUND`, not its registered hash: nothing was read to hash.
+    """
     found = {}
     for row in data_files:
         instead = row.get("read_instead")
-        found[row["name"]] = instead["sha256"] if instead else row["sha256"]
+        if instead:
+            found[row["name"]] = instead["sha256"]
+        else:
+            found[row["name"]] = NOT_FOUND if row.get("found") == "no" else row["sha256"]
     return dict(sorted(found.items()))
 
 
@@ -113,6 +123,8 @@ def _differences(recorded: Any, installed: Any, where: str) -> list[str]:
         return found
     if recorded == installed:
         return []
+    if installed == NOT_FOUND:
+        return [f"{where}: {NOT_FOUND}"]
     short = all(len(json.dumps(v, default=str)) <= 40 for v in (recorded, installed))
     return [f"{where}: {recorded!r} -> {installed!r}" if short else f"{where} changed"]
 
