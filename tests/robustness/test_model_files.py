@@ -126,6 +126,33 @@ def test_no_entry_sb3_writes_is_unpickled_either(kind: str, env_id: str, tmp_pat
         obs, *_ = env.step(action)
 
 
+@pytest.mark.parametrize("display", [None, "[-1. -1. -1.  0.]"])
+def test_a_model_saved_under_the_other_gymnasium_version_loads(display: str | None, tmp_path: Path) -> None:
+    """gymnasium 1.2 writes the bounds' display text (``low_repr``) beside a Box, later versions ``None``.
+
+    The published models were saved under one version and are evaluated under both (CI runs 1.2.2, which
+    RLlib pins): the text is not a property of the space, the bounds are.
+    """
+    model = tmp_path / "model.zip"
+    _saved_model("ppo", "gym4real/dam-v0", model)
+
+    def other_version(data: dict[str, Any]) -> None:
+        data["observation_space"]["low_repr"] = display
+        data["observation_space"]["high_repr"] = display
+
+    _rewrite_data(model, other_version)
+    env = gym.make("gym4real/dam-v0")
+    obs, _ = env.reset(seed=0)
+    assert env.action_space.contains(make_policy("gym4real/dam-v0", f"ppo:{model}", env)(obs))
+
+    def other_bounds(data: dict[str, Any]) -> None:
+        data["observation_space"]["high"] = "[   7.    1.    1. 1000.]"
+
+    _rewrite_data(model, other_bounds)
+    with pytest.raises(PolicyError, match=r"observation space of another kind \(high "):
+        make_policy("gym4real/dam-v0", f"ppo:{model}", env)
+
+
 def test_bench_refuses_a_crafted_model_and_runs_nothing(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     marker = tmp_path / "marker"
     model = tmp_path / "model.zip"
