@@ -62,6 +62,11 @@ def test_domain_wheels_hold_only_their_folder(wheels: dict[str, Path]) -> None:
                 f.startswith(
                     (
                         "gym4real/core/",
+                        "gym4real/bench/",
+                        "gym4real/rl/",
+                        "gym4real/results/",
+                        "gym4real/cli/",
+                        "gym4real/offline/",
                         "gym4real/wrappers/",
                         "gym4real/integrations/",
                         "gym4real/__init__.py",
