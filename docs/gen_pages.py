@@ -15,7 +15,8 @@ record``, no MP4) into the ignored ``docs/envs/gifs/``.
 The Environments page lists every id, the multi-objective ones with their reward components. The home
 page includes three snippets written into the ignored ``docs/snippets/`` (not pages of the site):
 the gallery of the envs (their GIFs linking to their pages), the verdict table of the results page and
-the citations (the suite's version read from gym4real-core's ``pyproject.toml``).
+the citations (the suite's version read from gym4real-core's ``pyproject.toml``). The Architecture page's
+figure, the layers of gym4real-core drawn from the import graph, goes into the ignored ``docs/diagrams/``.
 
     python docs/gen_pages.py [--figures results/docs] [--gifs]
 """
@@ -454,12 +455,14 @@ def architecture_figure(path: Path) -> Path:
     the number of imports from one group into another (every import that can run, deferred ones included).
     """
     import importlib.util
+    import textwrap
 
     import grimp
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib import patches
 
     spec = importlib.util.spec_from_file_location("lint_imports", DOCS.parent / "scripts" / "lint_imports.py")
     assert spec is not None and spec.loader is not None
@@ -480,46 +483,42 @@ def architecture_figure(path: Path) -> Path:
                 pair = (_group_of(module, layers), _group_of(imported, layers))
                 if pair[0] != pair[1]:
                     edges[pair] = edges.get(pair, 0) + 1
-    fig, ax = plt.subplots(figsize=(11, 8.5))
+    matplotlib.rcParams["svg.fonttype"] = "none"  # the names stay text in the SVG (searchable, selectable)
+    fig, ax = plt.subplots(figsize=(12, 8))
     ax.set_axis_off()
-    box_w, box_h, gap = 5.2, 1.05, 0.45
-    place: dict[str, tuple[float, float]] = {}
-    for i, layer in enumerate(layers):
-        place[layer] = (0.0, (len(layers) - 1 - i) * (box_h + gap))
-    place["domains"] = (7.0, place[layers[-2]][1])
-    place["beside"] = (7.0, place[layers[-4]][1])
+    box_w, box_h, gap = 5.6, 1.0, 0.5
+    ax.set_xlim(-2.2, 13.4)
+    ax.set_ylim(-0.3, len(layers) * (box_h + gap))
+    level = {layer: (len(layers) - 1 - i) * (box_h + gap) for i, layer in enumerate(layers)}
+    place = {layer: (0.0, y) for layer, y in level.items()}
+    place["domains"] = (7.6, level[layers[-1]])  # beside the host, whose plugin API they use
+    place["beside"] = (7.6, level[layers[-3]])
     titles = {"domains": "domains (plugins)", "beside": "beside the layers"}
     for group, (x, y) in place.items():
-        names = sorted({".".join(m.split(".")[: 2 if group in ("domains", "beside") else 3]) for m in members[group]})
-        short = [n.removeprefix(group + ".") if group in layers else n.removeprefix("gym4real.") for n in names]
-        short = [n for n in short if n != group]
-        body = ", ".join(s for s in short if not s.startswith("_"))
-        ax.add_patch(
-            matplotlib.patches.FancyBboxPatch(
-                (x, y), box_w, box_h, boxstyle="round,pad=0.05", facecolor="#eef3fb" if group in layers else "#f6f6f6"
-            )
-        )
-        lines = len(sorted(m for m in members[group]))
-        ax.text(x + 0.12, y + box_h - 0.22, f"{titles.get(group, group)}  ({lines} modules)", weight="bold", size=10)
-        import textwrap
-
-        ax.text(x + 0.12, y + box_h - 0.42, "\n".join(textwrap.wrap(body, 78)[:3]), size=7, va="top")
+        depth = 2 if group in ("domains", "beside") else 3
+        names = sorted({".".join(m.split(".")[:depth]) for m in members[group]} - {group})
+        short = [n.removeprefix(group + ".").removeprefix("gym4real.") for n in names]
+        colour = "#e8f0fb" if group in layers else "#f3f3f3"
+        ax.add_patch(patches.FancyBboxPatch((x, y), box_w, box_h, boxstyle="round,pad=0.04", facecolor=colour))
+        ax.text(x + 0.12, y + box_h - 0.2, f"{titles.get(group, group)} ({len(members[group])} modules)", weight="bold")
+        body = ", ".join(n for n in short if not n.startswith("_"))
+        ax.text(x + 0.12, y + box_h - 0.38, "\n".join(textwrap.wrap(body, 74)[:3]), size=7.5, va="top")
     for (src, dst), count in sorted(edges.items()):
         (x0, y0), (x1, y1) = place[src], place[dst]
-        start = (x0 + box_w / 2 + (0.6 if x0 == x1 else 0), y0) if y0 > y1 else (x0, y0 + box_h / 2)
-        end = (x1 + box_w / 2 + (0.6 if x0 == x1 else 0), y1 + box_h) if y0 > y1 else (x1 + box_w, y1 + box_h / 2)
-        if x0 != x1:
-            start, end = (x0, y0 + box_h / 2), (x1 + box_w, y1 + box_h / 2)
-        ax.annotate(
-            "",
-            xy=end,
-            xytext=start,
-            arrowprops={"arrowstyle": "->", "color": "#555", "connectionstyle": "arc3,rad=0.15"},
-        )
-        ax.text((start[0] + end[0]) / 2 + 0.1, (start[1] + end[1]) / 2, str(count), size=7, color="#333")
-    ax.set_xlim(-0.3, 12.6)
-    ax.set_ylim(-0.3, len(layers) * (box_h + gap))
-    ax.set_title("gym4real-core's layers: each arrow is the number of imports from one box into another", size=11)
+        if src in layers and dst in layers:  # down the stack, bulging left by how many layers it skips
+            span = layers.index(dst) - layers.index(src)
+            start, end, rad = (x0, y0 + box_h * 0.3), (x1, y1 + box_h * 0.7), 0.25 + 0.1 * span
+        else:  # across, between a box on the right and one of the stack
+            right = (box_w, y0 + box_h / 2) if x0 == 0 else (x0, y0 + box_h / 2)
+            left = (box_w, y1 + box_h / 2) if x1 == 0 else (x1, y1 + box_h / 2)
+            start, end, rad = right, left, 0.0
+        style = {"arrowstyle": "-|>", "color": "#4a5a70", "connectionstyle": f"arc3,rad={rad}", "lw": 0.9}
+        ax.annotate("", xy=end, xytext=start, arrowprops=style)
+        (sx, sy), (ex, ey) = ax.transData.transform([start, end])  # the arc's middle, as matplotlib bends it
+        middle = ((sx + ex) / 2 + rad * (ey - sy) / 2, (sy + ey) / 2 - rad * (ex - sx) / 2)
+        label = ax.transData.inverted().transform(middle)
+        ax.text(*label, str(count), size=7.5, ha="center", bbox={"facecolor": "white", "edgecolor": "none", "pad": 0.5})
+    ax.set_title("The layers of gym4real-core; each arrow: the number of imports from one box into another", size=11)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, bbox_inches="tight")
     plt.close(fig)
@@ -556,7 +555,7 @@ def main() -> None:
         else "No paper-budget run on the results page yet: no suite score.\n"
     )
     (snippets / "cite.md").write_text(citation())
-    architecture_figure(snippets / "architecture.svg")
+    architecture_figure(DOCS / "diagrams" / "architecture.svg")
     print(f"wrote {len(pages)} environment pages to {out} and the home page's snippets to {snippets}")
 
 

@@ -262,8 +262,11 @@ def test_site_builds_strict_with_the_env_pages_in_the_nav_and_an_executed_tutori
     for plugin in ("mkdocs", "mkdocs_gallery", "mkdocstrings_handlers.python", "mkdocs_literate_nav"):
         pytest.importorskip(plugin, reason="the docs session installs the site's plugins")
     docs = tmp_path / "docs"
-    shutil.copytree(ROOT / "docs", docs, ignore=shutil.ignore_patterns("envs", "snippets", "tutorials"))
+    shutil.copytree(ROOT / "docs", docs, ignore=shutil.ignore_patterns("envs", "snippets", "tutorials", "diagrams"))
     shutil.copy(ROOT / "mkdocs.yml", tmp_path / "mkdocs.yml")
+    shutil.copy(ROOT / ".importlinter", tmp_path / ".importlinter")  # the layers the Architecture page draws
+    (tmp_path / "scripts").mkdir()
+    shutil.copy(ROOT / "scripts" / "lint_imports.py", tmp_path / "scripts" / "lint_imports.py")
     (tmp_path / "packages").symlink_to(ROOT / "packages")  # the API reference's sources and the changelogs
     tutorials = tmp_path / "examples" / "tutorials"
     tutorials.mkdir(parents=True)
@@ -304,6 +307,11 @@ def test_site_builds_strict_with_the_env_pages_in_the_nav_and_an_executed_tutori
         assert page in nav
         assert re.search(rf'<a href="{page}"><img alt="{env_id}" src="envs/gifs/[^"]+\.gif"', home), env_id
     assert {"tutorials/tutorial_1_step/", "results/", "api/", "api/wrappers/", "plugins/", "releases/core/"} <= nav
+    assert "architecture/" in nav
+    drawn = (site / "diagrams" / "architecture.svg").read_text()  # drawn by the build from the import graph
+    for layer in ("gym4real.core", "gym4real.bench", "gym4real.rl", "gym4real.results", "gym4real.cli"):
+        assert layer in drawn
+    assert 'src="../diagrams/architecture.svg"' in (site / "architecture" / "index.html").read_text()
     tutorial = re.sub(r"<[^>]+>", "", (site / "tutorials" / "tutorial_1_step" / "index.html").read_text())
     assert "queues at the reset: [0 0 0 0]" in tutorial  # executed by the build: its output is on the page
     assert "gym4real.wrappers.challenge" in (site / "api" / "wrappers" / "index.html").read_text()
