@@ -379,3 +379,58 @@ def test_the_recorded_rates_are_within_a_factor_two_of_the_results_pages_measure
             assert guess.source == "budget x recorded step rate" and guess.cpu_s is not None
             # a rate per callback call was 8x off for wds; trading's and elevator's were 8x and 7x stale
             assert measured / 2 < guess.cpu_s < 2 * measured, (report["env_id"], algo, guess.cpu_s, measured)
+
+
+class _Pool:
+    """A process pool that runs what it is given here, recording how it was made and what it ran."""
+
+    made: list[dict[str, Any]] = []
+
+    def __init__(self, max_workers: int, mp_context: Any) -> None:
+        _Pool.made.append({"workers": max_workers, "start": mp_context.get_start_method(), "threads": dict(os.environ)})
+
+    def __enter__(self) -> _Pool:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        return None
+
+    def submit(self, fn: Any, *args: Any) -> Any:
+        from concurrent.futures import Future
+
+        future: Future[Any] = Future()
+        future.set_result(fn(*args))
+        return future
+
+
+@pytest.mark.parametrize("jobs", [1, 2, 3])
+def test_with_several_jobs_the_envs_are_tested_in_worker_processes_in_the_plans_order(
+    jobs: int, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The test phase of each env (baselines, upper references, trained runs) runs at up to ``jobs`` envs at a
+    time in spawned workers limited to one thread each; one job tests them here, in order."""
+    from gym4real.results import reproduce
+
+    tested: list[str] = []
+
+    def reproduce_env(env_id: str, budget: str, runs: list[Any], out: Path, command: str) -> Any:
+        tested.append(env_id)
+        if env_id == "gym4real/wds-v0":
+            raise RuntimeError("no data")
+        return reproduce.EnvReport(table=None, claims=[{"env": env_id}])  # type: ignore[arg-type]
+
+    _Pool.made = []
+    monkeypatch.setattr(reproduce, "reproduce_env", reproduce_env)
+    monkeypatch.setattr(reproduce, "ProcessPoolExecutor", _Pool)
+    envs = ["gym4real/trading-v0", "gym4real/wds-v0", "gym4real/dam-v0"]
+    bar = PlanProgress(len(envs), False)
+    found = reproduce.tested_envs({e: ([], f"cmd {e}") for e in envs}, "quick", tmp_path, jobs, bar)
+    assert list(found) == envs and tested == envs
+    assert found["gym4real/dam-v0"].claims == [{"env": "gym4real/dam-v0"}]  # type: ignore[union-attr]
+    assert "RuntimeError: no data" in str(found["gym4real/wds-v0"])  # one env's failure is its own
+    if jobs == 1:
+        assert _Pool.made == []
+    else:
+        (pool,) = _Pool.made
+        assert pool["workers"] == jobs and pool["start"] == "spawn"
+        assert all(pool["threads"][name] == value for name, value in THREAD_LIMITS.items())

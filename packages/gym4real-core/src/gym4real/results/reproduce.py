@@ -24,9 +24,11 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import multiprocessing
 import platform
 import time
 from collections.abc import Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -45,7 +47,7 @@ from gym4real.results.plan import Item, plan
 from gym4real.rl.progress import PlanProgress
 from gym4real.results.published_models import publish_models
 from gym4real.results.run_files import DamagedRunError, damaged_file
-from gym4real.results.runner import describe_error, train_plan
+from gym4real.results.runner import describe_error, thread_limits, train_plan
 from gym4real.rl.train import TrainingRun
 
 
@@ -235,6 +237,45 @@ def reproduce_env(
     return EnvReport(pd.read_csv(folder / "summary.csv"), claims)
 
 
+def _tested(env_id: str, budget: str, runs: list[TrainingRun], out: Path, command: str) -> EnvReport | str:
+    """:func:`reproduce_env`, or its error described (one env's failure must not stop the others)."""
+    try:
+        return reproduce_env(env_id, budget, runs, out, command)
+    except Exception as exc:
+        return describe_error(exc)
+
+
+def tested_envs(
+    tests: dict[str, tuple[list[TrainingRun], str]], budget: str, out: Path, jobs: int, bar: PlanProgress
+) -> dict[str, EnvReport | str]:
+    """The test phase of each env (its trained runs and the command that made them): a report or an error.
+
+    With ``jobs`` > 1 and several envs, up to ``jobs`` envs are tested at a time, each in a worker process
+    (``spawn``, one thread each, as the training workers); every test episode is seeded, so the results are
+    those of one job. The envs' results come back in ``tests``' order.
+    """
+    if jobs < 2 or len(tests) < 2:
+        found: dict[str, EnvReport | str] = {}
+        for env_id, (runs, command) in tests.items():
+            found[env_id] = _tested(env_id, budget, runs, out, command)
+            bar.close_item()
+        return found
+    context = multiprocessing.get_context("spawn")
+    with thread_limits(), ProcessPoolExecutor(min(jobs, len(tests)), mp_context=context) as pool:
+        futures = {
+            pool.submit(_tested, env_id, budget, runs, out, command): env_id
+            for env_id, (runs, command) in tests.items()
+        }
+        done: dict[str, EnvReport | str] = {}
+        for future in as_completed(futures):
+            try:
+                done[futures[future]] = future.result()
+            except Exception as exc:  # the worker died (killed, out of memory)
+                done[futures[future]] = describe_error(exc)
+            bar.close_item()
+    return {env_id: done[env_id] for env_id in tests}
+
+
 def _shown(out: Path) -> str:
     """``out`` as the page's command shows it: as given when relative, else ``OUT`` (no machine path)."""
     return str(out) if not out.is_absolute() else "OUT"
@@ -297,28 +338,32 @@ def reproduce(
         outcomes = train_on_ray(everything, out, storage, bar)
     else:
         outcomes = train_plan(everything, bar, jobs)
-    lines = []
+    tests: dict[str, tuple[list[TrainingRun], str]] = {}
     for env_id, items in plans.items():
         mine = [o for o in outcomes if o.item.env_id == env_id]
         failed = [o for o in mine if o.run is None]
-        try:
-            if failed:
-                raise Gym4RealError(f"{len(failed)} training run(s) failed; first: {failed[0].error}")
-            flag = seeds_flag(env_id, budget, list(dict.fromkeys(i.seed for i in items)))
-            command = f"gym4real reproduce {env_id} --budget {budget} --seeds {flag} --out {_shown(out)}"
-            report = reproduce_env(env_id, budget, [o.run for o in mine if o.run is not None], out, command)
-        except Exception as exc:  # one env's failure (missing data, a bug) must not stop the others
-            errors[env_id] = describe_error(exc)
-        else:
-            lines += [
-                f"== {env_id} ({budget})",
-                report.table.fillna("").to_string(float_format=lambda v: f"{v:.4g}"),
-                "",
-            ]
-            for c in report.claims:
-                lines.append(f"claim: {c['text']} -> {c['verdict']}")
-            lines.append("")
-        bar.close_item()
+        if failed:
+            errors[env_id] = describe_error(
+                Gym4RealError(f"{len(failed)} training run(s) failed; first: {failed[0].error}")
+            )
+            bar.close_item()
+            continue
+        flag = seeds_flag(env_id, budget, list(dict.fromkeys(i.seed for i in items)))
+        command = f"gym4real reproduce {env_id} --budget {budget} --seeds {flag} --out {_shown(out)}"
+        tests[env_id] = ([o.run for o in mine if o.run is not None], command)
+    lines = []
+    for env_id, report in tested_envs(tests, budget, out, jobs, bar).items():
+        if isinstance(report, str):  # one env's failure (missing data, a bug) does not stop the others
+            errors[env_id] = report
+            continue
+        lines += [
+            f"== {env_id} ({budget})",
+            report.table.fillna("").to_string(float_format=lambda v: f"{v:.4g}"),
+            "",
+        ]
+        for c in report.claims:
+            lines.append(f"claim: {c['text']} -> {c['verdict']}")
+        lines.append("")
     for env_id, error in errors.items():
         folder = results_folder(out, env_id, budget)
         folder.mkdir(parents=True, exist_ok=True)
