@@ -106,6 +106,7 @@ def test_the_evaluate_tutorial_installs_from_a_clean_machine_and_the_home_page_l
     assert "](evaluate.md)" in body  # in the page's text, not only in the navigation
 
 
+@pytest.mark.slow
 def test_the_evaluate_tutorials_example_output_has_the_tables_layout() -> None:
     """The page's example output is `Evaluation.table()`'s: its headers are those the code prints now."""
     page = (ROOT / "docs" / "evaluate.md").read_text(encoding="utf-8")
@@ -258,6 +259,7 @@ print("queues at the reset:", obs["floor_queues"])
 '''
 
 
+@pytest.mark.slow
 def test_site_builds_strict_with_the_env_pages_in_the_nav_and_an_executed_tutorial(tmp_path: Path) -> None:
     for plugin in ("mkdocs", "mkdocs_gallery", "mkdocstrings_handlers.python", "mkdocs_literate_nav"):
         pytest.importorskip(plugin, reason="the docs session installs the site's plugins")

@@ -197,6 +197,7 @@ def test_a_malformed_reference_table_is_refused(rows: list[dict[str, object]], m
         score_matrices(pd.DataFrame(rows), "ref.csv")
 
 
+@pytest.mark.slow
 def test_the_tutorial_trains_a2c_on_two_envs_and_reads_its_score(
     tmp_path: Path, load_script: Callable[[Path], ModuleType]
 ) -> None:
@@ -244,6 +245,7 @@ def test_an_unknown_id_is_named_with_the_nearest_ones(capsys: pytest.CaptureFixt
         assert "evaluation protocol" not in err
 
 
+@pytest.mark.slow
 def test_a_deterministic_agent_over_three_seeds_gets_a_suite_interval_of_nonzero_width(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -238,6 +238,7 @@ def local_ray() -> Iterator[Any]:
         ray.shutdown()
 
 
+@pytest.mark.ray
 @pytest.mark.slow
 def test_ray_trains_the_same_runs_as_one_job_through_the_storage(tmp_path: Path, local_ray: Any) -> None:
     pytest.importorskip("stable_baselines3")
@@ -267,6 +268,7 @@ def _ray_workers(function: str) -> list[int]:
     return found
 
 
+@pytest.mark.ray
 @pytest.mark.slow
 def test_a_run_whose_ray_worker_is_killed_resumes_from_the_storage(tmp_path: Path, local_ray: Any) -> None:
     from gym4real.results.cluster import train_on_ray

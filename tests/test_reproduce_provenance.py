@@ -135,6 +135,7 @@ def test_the_manifest_lists_the_distributions_the_runs_imported(elevator_quick: 
     assert runs["resumes"].tolist() == ["[]", "[]"] and runs["trained_by"].str.len().gt(0).all()
 
 
+@pytest.mark.slow
 def test_a_fresh_section_is_current_and_a_changed_fingerprint_makes_it_stale(
     elevator_quick: Path, tmp_path: Path
 ) -> None:

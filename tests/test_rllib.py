@@ -156,6 +156,7 @@ def local_ray():
     ray.shutdown()
 
 
+@pytest.mark.ray
 @pytest.mark.parametrize("env_id", IDS)
 def test_ppo_two_iterations_with_two_env_runners(env_id: str, local_ray: None) -> None:
     from ray.rllib.algorithms.ppo import PPOConfig
@@ -180,6 +181,7 @@ def test_ppo_two_iterations_with_two_env_runners(env_id: str, local_ray: None) -
     assert results[-1]["env_runners"]["num_episodes_lifetime"] >= 1
 
 
+@pytest.mark.ray
 @pytest.mark.parametrize(
     "env_id", [i for i in ("gym4real/dam-v0", "gym4real/elevator-v0") if i in gym4real.list_envs()]
 )

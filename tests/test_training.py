@@ -20,7 +20,15 @@ from gym4real.rl.train import default_out, train
 SMOKE = sorted((e, a) for (e, a, p) in registry().trainings if p == "smoke" and e in gym4real.list_envs())
 
 
-@pytest.mark.parametrize(("env_id", "algo"), SMOKE, ids=[f"{e.split('/')[1]}-{a}" for e, a in SMOKE])
+# picking-v1's smoke run trains on camera images for about a minute: a slow test (the latest gymnasium's run)
+SLOW_SMOKE = {("gym4real/robofeeder-picking-v1", "ppo")}
+
+
+@pytest.mark.parametrize(
+    ("env_id", "algo"),
+    [pytest.param(e, a, marks=[pytest.mark.slow] if (e, a) in SLOW_SMOKE else []) for e, a in SMOKE],
+    ids=[f"{e.split('/')[1]}-{a}" for e, a in SMOKE],
+)
 def test_smoke_training_saves_reloads_and_acts(env_id: str, algo: str, tmp_path: Path) -> None:
     if algo in ("ppo", "dqn"):
         pytest.importorskip("stable_baselines3")

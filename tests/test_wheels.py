@@ -81,6 +81,7 @@ def test_domain_wheels_hold_only_their_folder(wheels: dict[str, Path]) -> None:
             assert f"gym4real/{domain}/py.typed" in files
 
 
+@pytest.mark.slow
 def test_core_and_elevator_alone_list_only_the_elevator(wheels: dict[str, Path], tmp_path: Path) -> None:
     env_dir = tmp_path / "venv"
     venv.create(env_dir, with_pip=True)

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from gym4real.bench.benchmark import benchmark
 from gym4real.robofeeder import figures
@@ -18,6 +19,7 @@ def test_protocol_sizes() -> None:
     assert len(plan) == 50 and plan[0] == {"seed": 1000, "options": None}
 
 
+@pytest.mark.slow
 def test_core_benchmark_runs(tmp_path: Path) -> None:
     result = benchmark("gym4real/robofeeder-picking-v0", ["fixed", "oracle"], episodes=3, out=tmp_path)
     summary = result.summary()

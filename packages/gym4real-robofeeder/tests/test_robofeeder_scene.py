@@ -100,6 +100,7 @@ def _rss_mb() -> float:
     return 0.0
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc/self/status").exists(), reason="needs /proc")
 def test_100_make_close_cycles_do_not_grow() -> None:
     for _ in range(3):  # warm caches (compiled template, rest pose, GL libraries)
