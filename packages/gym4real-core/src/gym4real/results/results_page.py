@@ -250,6 +250,20 @@ def _shows(section: Section, claim: dict[str, Any]) -> str:
     return text
 
 
+def _upper_references_line(report: dict[str, Any]) -> list[str]:
+    """The line saying who measured the upper references of a section published before they existed."""
+    added = report.get("upper_references")
+    if not added:
+        return []
+    names = ", ".join(f"`{p}`" for p in added["policies"])
+    return [
+        f"Upper references {names} measured later, on the same test protocol, at code version "
+        f"`{added['code_version']}` (`{added['command']}`, test {_duration(added['test_wall_time_s'])}); the other "
+        "rows are this section's own.",
+        "",
+    ]
+
+
 def _section(folder: Path, section: Section | None, version: str) -> list[str]:
     """The page's section of one env folder; ``section`` is None when it has no results."""
     m = FOLDER.match(folder.name)
@@ -284,6 +298,7 @@ def _section(folder: Path, section: Section | None, version: str) -> list[str]:
         + ", ".join(f"[{f}]({name}/{f})" for f in ("episodes.csv", "runs.csv", "summary.csv", "improvement.csv"))
         + ".",
         "",
+        *_upper_references_line(report),
         *models_lines(folder, name),
         "| policy | seeds | episodes | IQM | 95 % interval | mean | spread | mean return | train time | env-steps/s |",
         "|---|---|---|---|---|---|---|---|---|---|",

@@ -1,0 +1,62 @@
+"""``scripts/add_upper_references.py``: upper references added to a published section, or refused when stale."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import shutil
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _script():  # type: ignore[no-untyped-def]
+    spec = importlib.util.spec_from_file_location("add_upper_references", ROOT / "scripts" / "add_upper_references.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_a_section_whose_protocol_changed_is_refused_and_left_as_it_was(tmp_path: Path) -> None:
+    folder = tmp_path / "dam-v0-paper"
+    shutil.copytree(ROOT / "docs" / "results" / "dam-v0-paper", folder)
+    report = json.loads((folder / "report.json").read_text())
+    report["fingerprints"]["protocol"]["episodes"] = "another protocol"
+    (folder / "report.json").write_text(json.dumps(report, indent=1))
+    before = {p.name: p.read_bytes() for p in folder.iterdir() if p.is_file()}
+    said = _script().add(folder)
+    assert "not current" in said and "protocol" in said and "--stale" in said
+    assert {p.name: p.read_bytes() for p in folder.iterdir() if p.is_file()} == before
+
+
+def test_only_a_training_file_not_found_here_leaves_a_section_comparable() -> None:
+    blocking = _script()._blocking
+    assert blocking(["data.microgrid/demand/train: not found here"]) == []
+    assert blocking(["data.dam/inflow: 'a' -> 'b'"]) == ["data.dam/inflow: 'a' -> 'b'"]
+    assert blocking(["protocol.episodes changed"]) == ["protocol.episodes changed"]
+
+
+@pytest.mark.slow
+def test_the_upper_reference_rows_are_added_beside_the_sections_own_rows_which_stay_as_they_were(
+    tmp_path: Path,
+) -> None:
+    """On wds (20 test weeks), whose planner's rows the published section lacks."""
+    folder = tmp_path / "wds-v0-paper"
+    shutil.copytree(ROOT / "docs" / "results" / "wds-v0-paper", folder)
+    own = pd.read_csv(folder / "episodes.csv")
+    said = _script().add(folder)
+    assert said.startswith("wds-v0-paper: added hindsight (20 test episodes"), said
+    episodes = pd.read_csv(folder / "episodes.csv")
+    pd.testing.assert_frame_equal(episodes.iloc[: len(own)], own)  # the section's own rows, untouched
+    upper = episodes[episodes["policy"] == "hindsight"]
+    assert list(upper["episode"]) == list(range(20)) and upper["seed"].isna().all()
+    best_rule = own[own["seed"].isna()].groupby("policy")["objective"].mean().max()
+    assert upper["objective"].mean() >= best_rule  # an upper reference: at least the best rule on average
+    report = json.loads((folder / "report.json").read_text())
+    assert report["upper_references"]["policies"] == ["hindsight"]
+    summary = pd.read_csv(folder / "summary.csv")
+    assert "hindsight" in set(summary["policy"])
