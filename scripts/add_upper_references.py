@@ -38,8 +38,12 @@ def _blocking(changes: list[str]) -> list[str]:
     return [c for c in changes if not (c.startswith(("data.", "trainer.")) and c.endswith(NOT_FOUND))]
 
 
-def add(folder: Path) -> str:
-    """Add the upper references to one section; return what was done (or why not)."""
+def add(folder: Path, version: str | None = None) -> str:
+    """Add the upper references to one section; return what was done (or why not).
+
+    ``version``: the code version that measures them (default :func:`code_version`; a run over several sections
+    reads it once, before it writes into the first).
+    """
     report_path = folder / "report.json"
     report = json.loads(report_path.read_text())
     env_id, budget = report["env_id"], report["budget"]
@@ -60,7 +64,7 @@ def add(folder: Path) -> str:
     merged.to_csv(folder / "episodes.csv", index=False)
     report["upper_references"] = {
         "policies": upper,
-        "code_version": code_version(),
+        "code_version": version or code_version(),
         "command": f"python scripts/add_upper_references.py {folder.as_posix()}",
         "test_wall_time_s": wall,
     }
@@ -75,8 +79,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("sections", nargs="*", type=Path, help="section folders (default: docs/results/*-paper)")
     args = parser.parse_args(argv)
     sections = args.sections or sorted(p.parent for p in Path("docs/results").glob("*-paper/report.json"))
+    version = code_version()  # before anything is written: the checkout's commit, not "dirty" with our output
     for folder in sections:
-        print(add(folder), flush=True)
+        print(add(folder, version), flush=True)
     return 0
 
 
