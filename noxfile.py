@@ -4,7 +4,7 @@
 * ``tests-<dist>``: one distribution with core only, in its own venv, its own suite.
 * ``wheels``: build every wheel, install them into a fresh venv, smoke-test each domain.
 * ``minimal``: core alone lists no env and names the pip install of a missing domain.
-* ``lint`` (ruff) and ``typecheck`` (mypy).
+* ``lint`` (ruff, import-linter's layers) and ``typecheck`` (mypy).
 * ``release -- <dist>`` and ``compat -- <dist>``: release checks of one distribution (RELEASING.md).
 """
 
@@ -34,6 +34,7 @@ DOCS = [
     "mkdocs-gallery>=0.10",
     "mkdocs-literate-nav>=0.6",
     "ruff",  # mkdocstrings formats the signatures with it
+    "import-linter>=2.1",  # the Architecture page draws the layers from its import graph (grimp)
 ]
 
 nox.options.default_venv_backend = "venv"
@@ -219,10 +220,11 @@ def minimal(session: nox.Session) -> None:
 
 @nox.session
 def lint(session: nox.Session) -> None:
-    """Ruff lint and format check over the whole repository."""
-    session.install("ruff")
+    """Ruff lint and format check over the whole repository; the import layers (import-linter, `.importlinter`)."""
+    session.install("ruff", "import-linter>=2.1", *(f"-e{d}" for d in PACKAGES))
     session.run("ruff", "check", ".")
     session.run("ruff", "format", "--check", ".")
+    session.run("python", "scripts/lint_imports.py", "--no-cache")
 
 
 @nox.session

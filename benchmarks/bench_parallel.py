@@ -33,8 +33,8 @@ sys.path.insert(0, str(Path(__file__).parent))
 
 from report import report
 
-from gym4real.core.rl.plan import Item, plan
-from gym4real.core.rl.runner import THREAD_LIMITS, available_cpus, train_plan
+from gym4real.results.plan import Item, plan
+from gym4real.results.runner import THREAD_LIMITS, available_cpus, train_plan
 
 
 def _same(a: Item, b: Item) -> bool:
@@ -143,7 +143,7 @@ def main() -> None:
     if args.ray:
         import ray
 
-        from gym4real.core.rl.cluster import train_on_ray
+        from gym4real.results.cluster import train_on_ray
 
         start = time.perf_counter()
         ray.init(

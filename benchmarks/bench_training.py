@@ -39,8 +39,8 @@ import numpy as np
 from report import report  # benchmarks/report.py (the script's folder is on sys.path)
 
 import gym4real
-from gym4real.core.rl.plan import presets
-from gym4real.core.rl.presets import load_preset
+from gym4real.bench.seeds import presets
+from gym4real.rl.presets import load_preset
 
 DEFAULT = (
     "gym4real/elevator-v0:qlearning:paper,gym4real/elevator-v0:sarsa:paper,gym4real/dam-v0:ppo:paper,"
@@ -62,7 +62,7 @@ def _env_only(env_id: str, hp: dict[str, Any], steps: int) -> float:
         return time.process_time() - start
     from stable_baselines3.common.env_util import make_vec_env
 
-    from gym4real.core.rl.sb3 import _rescale
+    from gym4real.rl.sb3 import _rescale
 
     venv = make_vec_env(
         env_id,
@@ -87,13 +87,13 @@ def _train(env_id: str, hp: dict[str, Any], steps: int, compiled: bool | None) -
     with tempfile.TemporaryDirectory() as tmp:
         start = time.process_time()
         if hp["algo"] in ("qlearning", "sarsa"):
-            from gym4real.core.rl.tabular import train_tabular
+            from gym4real.rl.tabular import train_tabular
 
             horizon = gym.make(env_id, **hp["env_kwargs"]).unwrapped.config.duration
             short = {**hp, "episodes": max(1, steps // horizon), "eval_every": 10**9, "eval_episodes": 1}
             _, counts = train_tabular(env_id, short, 0, Path(tmp), compiled=compiled)
         else:
-            from gym4real.core.rl.sb3 import train_sb3
+            from gym4real.rl.sb3 import train_sb3
 
             short = {**hp, "total_timesteps": steps, "eval_freq": 10**9, "eval_episodes": 1}
             _, counts = train_sb3(env_id, short, 0, Path(tmp))
@@ -142,8 +142,8 @@ def _before_issue_22() -> Iterator[None]:
     """The training harness as it was: SB3's DummyVecEnv, evaluation episodes one at a time through ``predict``."""
     from stable_baselines3.common.vec_env import DummyVecEnv
 
-    from gym4real.core.benchmark import run_episode
-    from gym4real.core.rl import evaluation, vec_env
+    from gym4real.bench.benchmark import run_episode
+    from gym4real.rl import evaluation, vec_env
 
     class OneAtATime(evaluation.BatchEvaluation):
         def __init__(self, env_id: str, env_kwargs: dict[str, Any], episodes: int, seed: int) -> None:
@@ -163,7 +163,7 @@ def _before_issue_22() -> Iterator[None]:
 
 
 def _end_to_end(item: str, env_kwargs: dict[str, Any] | None, steps: int, raw_steps: int) -> dict[str, Any]:
-    from gym4real.core.rl.sb3 import train_sb3
+    from gym4real.rl.sb3 import train_sb3
 
     env_id, algo, preset = item.split(":")
     hp = load_preset(env_id, algo, preset)

@@ -35,6 +35,7 @@ import gymnasium as gym
 import pandas as pd
 
 import gym4real
+import gym4real.core.registry
 from gym4real.core.registry import MARK, non_causal, registry
 from gym4real.core.specs import FLAGS
 
@@ -63,7 +64,7 @@ def best_baseline(env_id: str, figures: Path | None) -> str:
 
 def episode_gif(env_id: str, policy: str, steps: int) -> Path:
     """Record the first ``steps`` steps of the policy's seed-0 episode as a GIF in docs/envs/gifs/."""
-    from gym4real.core.record import record
+    from gym4real.bench.record import record
 
     (gif,) = record(
         env_id, policy, out=DOCS / "envs" / "gifs", max_steps=steps, mp4=False, gif_frames=GIF_FRAMES, progress=False
@@ -159,7 +160,7 @@ def page(env_id: str, figures: Path | None, gif: tuple[Path, str, int] | None = 
 
 def mo_section(env_id: str) -> list[str]:
     """The multi-objective evaluation of the env's vector-reward id: objectives, reference point, reference fronts."""
-    from gym4real.core.mo_reference import summary
+    from gym4real.bench.mo_reference import summary
     from gym4real.core.mo_spec import mo_ids, mo_spec
 
     found = [i for i in mo_ids() if registry().multi_objective[i] == env_id]
@@ -424,6 +425,104 @@ def citation() -> str:
     )
 
 
+#: The layers of gym4real-core, top first, as ``.importlinter`` states them; then what sits beside them.
+LINT_CONFIG = DOCS.parent / ".importlinter"
+
+
+def _layers() -> list[str]:
+    import configparser
+
+    config = configparser.ConfigParser()
+    config.read(LINT_CONFIG)
+    return config["importlinter:contract:layers"]["layers"].split()
+
+
+def _group_of(module: str, layers: list[str]) -> str:
+    """The layer of a module, else ``domains`` (a domain's plugin) or ``beside`` (wrappers, integrations, ...)."""
+    for layer in layers:
+        if module == layer or module.startswith(layer + "."):
+            return layer
+    domains = {gym4real.core.registry.domain_of(env_id) for env_id in gym4real.list_envs()}
+    return "domains" if module.split(".")[1] in domains else "beside"
+
+
+def architecture_figure(path: Path) -> Path:
+    """Draw the layers of gym4real-core from the import graph of the installed code (grimp, as lint-imports).
+
+    One box per layer (top: the command; bottom: the plugin host) listing its modules, the domains' plugins
+    and the packages beside the layers (wrappers, integrations, offline datasets); each arrow is labelled with
+    the number of imports from one group into another (every import that can run, deferred ones included).
+    """
+    import importlib.util
+
+    import grimp
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    spec = importlib.util.spec_from_file_location("lint_imports", DOCS.parent / "scripts" / "lint_imports.py")
+    assert spec is not None and spec.loader is not None
+    runner = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(runner)
+    runner.whole_namespace()
+    graph = grimp.build_graph("gym4real", cache_dir=None)
+    layers = _layers()
+    groups = [*layers, "domains", "beside"]
+    members: dict[str, list[str]] = {g: [] for g in groups}
+    for module in sorted(graph.modules):
+        if module.count(".") >= 1:
+            members[_group_of(module, layers)].append(module)
+    edges: dict[tuple[str, str], int] = {}
+    for module in graph.modules:
+        for imported in graph.find_modules_directly_imported_by(module):
+            if imported.startswith("gym4real.") and module.count(".") >= 1:
+                pair = (_group_of(module, layers), _group_of(imported, layers))
+                if pair[0] != pair[1]:
+                    edges[pair] = edges.get(pair, 0) + 1
+    fig, ax = plt.subplots(figsize=(11, 8.5))
+    ax.set_axis_off()
+    box_w, box_h, gap = 5.2, 1.05, 0.45
+    place: dict[str, tuple[float, float]] = {}
+    for i, layer in enumerate(layers):
+        place[layer] = (0.0, (len(layers) - 1 - i) * (box_h + gap))
+    place["domains"] = (7.0, place[layers[-2]][1])
+    place["beside"] = (7.0, place[layers[-4]][1])
+    titles = {"domains": "domains (plugins)", "beside": "beside the layers"}
+    for group, (x, y) in place.items():
+        names = sorted({".".join(m.split(".")[: 2 if group in ("domains", "beside") else 3]) for m in members[group]})
+        short = [n.removeprefix(group + ".") if group in layers else n.removeprefix("gym4real.") for n in names]
+        short = [n for n in short if n != group]
+        body = ", ".join(s for s in short if not s.startswith("_"))
+        ax.add_patch(
+            matplotlib.patches.FancyBboxPatch(
+                (x, y), box_w, box_h, boxstyle="round,pad=0.05", facecolor="#eef3fb" if group in layers else "#f6f6f6"
+            )
+        )
+        lines = len(sorted(m for m in members[group]))
+        ax.text(x + 0.12, y + box_h - 0.22, f"{titles.get(group, group)}  ({lines} modules)", weight="bold", size=10)
+        import textwrap
+
+        ax.text(x + 0.12, y + box_h - 0.42, "\n".join(textwrap.wrap(body, 78)[:3]), size=7, va="top")
+    for (src, dst), count in sorted(edges.items()):
+        (x0, y0), (x1, y1) = place[src], place[dst]
+        start = (x0 + box_w / 2 + (0.6 if x0 == x1 else 0), y0) if y0 > y1 else (x0, y0 + box_h / 2)
+        end = (x1 + box_w / 2 + (0.6 if x0 == x1 else 0), y1 + box_h) if y0 > y1 else (x1 + box_w, y1 + box_h / 2)
+        if x0 != x1:
+            start, end = (x0, y0 + box_h / 2), (x1 + box_w, y1 + box_h / 2)
+        ax.annotate(
+            "", xy=end, xytext=start, arrowprops={"arrowstyle": "->", "color": "#555", "connectionstyle": "arc3,rad=0.15"}
+        )
+        ax.text((start[0] + end[0]) / 2 + 0.1, (start[1] + end[1]) / 2, str(count), size=7, color="#333")
+    ax.set_xlim(-0.3, 12.6)
+    ax.set_ylim(-0.3, len(layers) * (box_h + gap))
+    ax.set_title("gym4real-core's layers: each arrow is the number of imports from one box into another", size=11)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, bbox_inches="tight")
+    plt.close(fig)
+    return path
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--figures", type=Path, help="folder of gym4real bench results, one subfolder per env")
@@ -454,6 +553,7 @@ def main() -> None:
         else "No paper-budget run on the results page yet: no suite score.\n"
     )
     (snippets / "cite.md").write_text(citation())
+    architecture_figure(snippets / "architecture.svg")
     print(f"wrote {len(pages)} environment pages to {out} and the home page's snippets to {snippets}")
 
 

@@ -2,7 +2,7 @@
 
 ``python scripts/export_mo_references.py [ENV_ID ...] [--measured CSV] [--into DIR]`` writes, for each id
 (default: every vector-reward id whose domain declares its evaluation), ``packages/gym4real-<domain>/src/
-gym4real/<domain>/reference/<name>.mo.json`` (:func:`gym4real.core.mo_reference.export`): ``random``'s test
+gym4real/<domain>/reference/<name>.mo.json`` (:func:`gym4real.bench.mo_reference.export`): ``random``'s test
 episodes (from the env's shipped reference runs, else run), the reference point they give, and every
 rule-based sweep run on the test protocol. ``--measured`` takes per-episode objectives already measured on
 the same protocol (columns ``env_id, policy, episode`` and one per objective; ``policy`` is ``random`` or
@@ -19,8 +19,8 @@ from collections.abc import Sequence
 import numpy as np
 import pandas as pd
 
+from gym4real.bench.mo_reference import export
 from gym4real.core.errors import Gym4RealError
-from gym4real.core.mo_reference import export
 from gym4real.core.mo_spec import mo_ids, mo_spec
 
 

@@ -4,7 +4,7 @@
 ``RESULTS/<name>-<budget>/episodes.csv`` and ``manifest.json`` (written by ``gym4real reproduce``; RESULTS
 defaults to ``docs/results``), takes the fingerprint of the installed environment's protocol, and writes
 ``packages/gym4real-<domain>/src/gym4real/<domain>/reference/<name>.csv`` and ``.json``, the files
-``gym4real evaluate`` compares with (:mod:`gym4real.core.reference`). Run it in an editable checkout,
+``gym4real evaluate`` compares with (:mod:`gym4real.bench.reference`). Run it in an editable checkout,
 after the paper-budget runs, with the data files at hand (the fingerprint makes each environment).
 """
 
@@ -15,10 +15,9 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from gym4real.bench.reference import export_reference
 from gym4real.core.errors import Gym4RealError
-from gym4real.core.reference import export_reference
-from gym4real.core.registry import list_envs, registry
-from gym4real.core.rl.plan import slug
+from gym4real.core.registry import list_envs, registry, slug
 
 
 def main(argv: Sequence[str] | None = None) -> int:

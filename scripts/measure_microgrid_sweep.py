@@ -16,7 +16,7 @@ from collections.abc import Sequence
 import numpy as np
 import pandas as pd
 
-from gym4real.core.mo_reference import test_plan
+from gym4real.bench.mo_reference import test_plan
 from gym4real.core.mo_spec import mo_spec
 from gym4real.microgrid.multi_objective import CONSTANT_FRACTION
 from gym4real.microgrid.vector import MicrogridVectorEnv

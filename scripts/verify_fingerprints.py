@@ -1,6 +1,6 @@
 """Record the fingerprints of a results section trained before sections recorded them, where verified.
 
-A section written before ``report.json`` held fingerprints (:mod:`gym4real.core.rl.fingerprints`) gets
+A section written before ``report.json`` held fingerprints (:mod:`gym4real.results.fingerprints`) gets
 each one only when this checkout verifies that it is the one its numbers were made with:
 
 - ``protocol``: every baseline is run again on the installed test protocol and must score, episode by
@@ -9,7 +9,7 @@ each one only when this checkout verifies that it is the one its numbers were ma
   in place of a missing file: the stand-in's recorded hash); a file that differs here makes it stale;
 - ``trainer``: each run's settings (``runs.csv``) must be the installed preset's, the recorded
   Stable-Baselines3 and PyTorch versions the installed ones, and ``--trainer-verified`` must say how
-  :data:`~gym4real.core.rl.fingerprints.TRAINER_VERSION` was checked against the training commit (the golden
+  :data:`~gym4real.results.fingerprints.TRAINER_VERSION` was checked against the training commit (the golden
   smoke runs of ``tests/test_trainer_version.py`` giving the same hashes there as here).
 
 A part that fails its check is not recorded (the section then shows as stale and names it). How each part
@@ -28,9 +28,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from gym4real.core.benchmark import benchmark, protocol
-from gym4real.core.rl import fingerprints, provenance
-from gym4real.core.rl.presets import load_preset
+from gym4real.bench import versions
+from gym4real.bench.benchmark import benchmark, protocol
+from gym4real.results import fingerprints
+from gym4real.rl.presets import load_preset
 
 
 def verify_protocol(env_id: str, episodes: pd.DataFrame) -> str | None:
@@ -48,7 +49,7 @@ def verify_protocol(env_id: str, episodes: pd.DataFrame) -> str | None:
         worst = max(worst, float(np.max(np.abs(mine - theirs))) if mine.size else 0.0)
     count = int(sum(episodes["policy"].isin(baselines)))
     return (
-        f"the {len(baselines)} baselines ({', '.join(baselines)}) rerun by {provenance.code_version()} on the "
+        f"the {len(baselines)} baselines ({', '.join(baselines)}) rerun by {versions.code_version()} on the "
         f"installed protocol score the {count} baseline rows of episodes.csv (largest difference {worst:.3g})"
     )
 

@@ -10,9 +10,9 @@ import pytest
 
 pytest.importorskip("stable_baselines3")
 
-from gym4real.core.benchmark import run_episode
-from gym4real.core.rl.evaluation import BatchEvaluation
-from gym4real.core.rl.sb3 import NormalizedPolicy, rescaled
+from gym4real.bench.benchmark import run_episode
+from gym4real.rl.evaluation import BatchEvaluation
+from gym4real.rl.sb3 import NormalizedPolicy, rescaled
 
 
 def _policy(env_id: str, kwargs: dict[str, Any], algo: str, normalize: bool) -> NormalizedPolicy:

@@ -14,11 +14,11 @@ import pytest
 from scipy import stats as sps
 
 import gym4real
-from gym4real.core import plots
-from gym4real.core.benchmark import FEW_EPISODES, BenchmarkResult, benchmark, protocol, short_label
-from gym4real.core.cli import main
+from gym4real.bench import plots
+from gym4real.bench.benchmark import FEW_EPISODES, BenchmarkResult, benchmark, protocol, short_label
+from gym4real.cli import main
 from gym4real.core.registry import registry
-from gym4real.core.rl import analysis
+from gym4real.results import analysis
 
 
 def result_of(returns: dict[str, list[float]], objective: tuple[str, ...] = ()) -> BenchmarkResult:
@@ -104,7 +104,7 @@ def test_a_model_file_is_labelled_by_its_run_folder() -> None:
 
 
 def test_a_trained_model_is_benchmarked_under_its_short_label(tmp_path: Path, monkeypatch) -> None:
-    from gym4real.core.rl.train import train
+    from gym4real.rl.train import train
 
     monkeypatch.chdir(tmp_path)
     model = train("gym4real/elevator-v0", "qlearning", "smoke", seed=3).model_path
@@ -147,7 +147,7 @@ def test_figures_name_the_step_unit_and_keep_the_legend_off_the_plot(tmp_path: P
 
 
 def test_the_per_step_objective_adds_up_to_the_episodes_objective_and_is_what_reproduce_plots(tmp_path: Path) -> None:
-    from gym4real.core.benchmark import benchmark
+    from gym4real.bench.benchmark import benchmark
 
     result = benchmark("gym4real/dam-v0", ["max"], episodes=1)
     steps = result.objective_rewards["max"][0]

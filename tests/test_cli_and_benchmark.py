@@ -13,7 +13,7 @@ import pandas as pd
 import pytest
 
 import gym4real
-from gym4real.core.cli import main
+from gym4real.cli import main
 from gym4real.core.errors import EnvUnavailableError, PolicyError
 from gym4real.core.registry import registry
 
@@ -82,7 +82,7 @@ def test_cli_bench_writes_table_and_figures(tmp_path: Path) -> None:
         [
             sys.executable,
             "-m",
-            "gym4real.core.cli",
+            "gym4real.cli",
             "bench",
             "gym4real/elevator-v0",
             "--episodes",
@@ -129,7 +129,7 @@ def test_a_missing_data_file_is_reported_before_any_progress_bar_is_drawn(tmp_pa
         pytest.skip("gym4real-dam is not installed")
     env = {k: v for k, v in os.environ.items() if k != "GYM4REAL_DATA_DIR"}
     env |= {"GYM4REAL_CACHE_DIR": str(tmp_path), "GYM4REAL_OFFLINE": "1"}
-    cmd = [sys.executable, "-m", "gym4real.core.cli", "bench", "gym4real/dam-v0", "--episodes", "1"]
+    cmd = [sys.executable, "-m", "gym4real.cli", "bench", "gym4real/dam-v0", "--episodes", "1"]
     run = subprocess.run(cmd, capture_output=True, text=True, env=env, check=False)
     assert run.returncode == 2
     assert "episode/s]" not in run.stderr  # no progress bar drawn before the error
@@ -153,8 +153,8 @@ def _absent() -> int:
 def test_every_cli_argument_has_help_and_algo_lists_its_choices() -> None:
     import argparse
 
-    from gym4real.core.cli import _parser
-    from gym4real.core.rl.presets import ALGOS
+    from gym4real.cli import _parser
+    from gym4real.rl.presets import ALGOS
 
     def parsers(parser: argparse.ArgumentParser, path: str) -> list[tuple[str, argparse.ArgumentParser]]:
         found = [(path, parser)]
@@ -216,7 +216,7 @@ def test_info_of_a_box_with_infinite_bounds_says_them_without_a_numpy_warning() 
         mixed = gym.spaces.Box(np.array([-inf] * 7 + [0.0]), np.full(8, inf), dtype=np.float64)
         assert space_text(mixed) == "Box(-inf..inf, (8,), float64; bounds vary by entry)"
         done = subprocess.run(
-            [sys.executable, "-W", "error::RuntimeWarning", "-m", "gym4real.core.cli", "info", "gym4real/trading-v0"],
+            [sys.executable, "-W", "error::RuntimeWarning", "-m", "gym4real.cli", "info", "gym4real/trading-v0"],
             capture_output=True,
             text=True,
             check=False,
@@ -227,7 +227,7 @@ def test_info_of_a_box_with_infinite_bounds_says_them_without_a_numpy_warning() 
 def test_a_reader_that_goes_away_is_not_an_error() -> None:
     """`gym4real list | head`: the closed pipe ends the command quietly, with no error line."""
     child = subprocess.Popen(
-        [sys.executable, "-m", "gym4real.core.cli", "list"], stdout=subprocess.PIPE, stderr=subprocess.PIPE
+        [sys.executable, "-m", "gym4real.cli", "list"], stdout=subprocess.PIPE, stderr=subprocess.PIPE
     )
     assert child.stdout is not None and child.stderr is not None
     child.stdout.close()  # before the child has imported anything, so its first write finds the pipe closed

@@ -10,7 +10,7 @@ pytest.importorskip("numba")
 from numba import njit
 
 import gym4real  # noqa: F401  (registers the envs)
-from gym4real.core.rl.compiled import episode_loop
+from gym4real.rl.compiled import episode_loop
 
 
 def test_the_loops_cache_key_names_its_kernel_by_code_not_by_object() -> None:

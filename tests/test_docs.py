@@ -74,8 +74,8 @@ def test_citation_names_the_installed_suite_version_and_the_readme_carries_it(
 
 def test_the_readmes_evaluate_path_is_the_folder_train_writes() -> None:
     """`{env}` of `evaluate` is the id's name, the folder name of `train`'s runs (and of `reproduce`'s envs)."""
-    from gym4real.core.evaluate import _filled
-    from gym4real.core.rl.train import default_out
+    from gym4real.bench.evaluate import _filled
+    from gym4real.rl.train import default_out
 
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
     (env_id, algo, preset, seed), *_ = re.findall(
@@ -156,8 +156,8 @@ def test_the_api_references_docstring_roles_become_links_to_objects_on_its_pages
         assert any(identifier == r or identifier.startswith(r + ".") for r in roots), identifier
     assert {
         "gym4real.core.errors.ConfigError",
-        "gym4real.core.suite_score",
-        "gym4real.core.benchmark.benchmark",
+        "gym4real.bench.suite_score",
+        "gym4real.bench.benchmark.benchmark",
     } <= links
 
 

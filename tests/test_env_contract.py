@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 import gym4real
-from gym4real.core.policies import baseline_names, make_policy
+from gym4real.bench.policies import make_policy
+from gym4real.core.registry import baseline_names
 from gym4real.core.testing import check_contract
 
 IDS = gym4real.list_envs(multi_objective=False)  # the vector-reward variants: tests/test_multi_objective_envs.py

@@ -18,10 +18,10 @@ import pytest
 from scipy import stats as sps
 
 import gym4real
-from gym4real.core.cli import main
-from gym4real.core.episodes import score_matrices
+from gym4real.bench.episodes import score_matrices
+from gym4real.bench.reference import load_reference
+from gym4real.cli import main
 from gym4real.core.errors import ConfigError, PolicyError, ReferenceMismatchError
-from gym4real.core.reference import load_reference
 
 ENV = "gym4real/elevator-v0"
 
@@ -153,7 +153,7 @@ def test_seeds_as_a_number_are_the_first_seeds_of_each_envs_plan_as_reproduce_tr
     references: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """`seeds=2` scores the models of `gym4real reproduce ... --seeds 2` (elevator: the paper's 42, then 0)."""
-    from gym4real.core.rl.plan import seeds as plan_seeds
+    from gym4real.bench.seeds import seeds as plan_seeds
     from gym4real.elevator.baselines import longest_first
 
     called: list[int] = []
@@ -250,7 +250,7 @@ def test_a_deterministic_agent_over_three_seeds_gets_a_suite_interval_of_nonzero
     (tmp_path / "steady_agents.py").write_text(
         textwrap.dedent(
             """
-            from gym4real.core.policies import make_policy
+            from gym4real.bench.policies import make_policy
 
             def steady(env, seed):
                 env_id = env.spec.id if env.spec is not None else ""
@@ -303,7 +303,7 @@ def test_trading_whose_anchors_are_not_separated_stays_out_of_the_suite_score() 
 def test_the_aggregate_figure_draws_a_point_interval_as_the_agents_marker_inside_the_axes() -> None:
     from matplotlib.lines import Line2D
 
-    from gym4real.core.evaluate_report import AGENT_COLOUR, aggregate_figure
+    from gym4real.bench.evaluate_report import AGENT_COLOUR, aggregate_figure
 
     point = {"iqm": -0.286, "low": -0.286, "high": -0.286}  # a zero-width interval, below every other bound
     point.update(optimality_gap=1.286, optimality_gap_low=1.286, optimality_gap_high=1.286)

@@ -12,9 +12,9 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from gym4real.core import mo_metrics, mo_reference
+from gym4real.bench import mo_metrics, mo_reference
+from gym4real.bench.mo_eval import agents_of, policies_of
 from gym4real.core.errors import ConfigError, ReferenceMismatchError
-from gym4real.core.mo_eval import agents_of, policies_of
 from gym4real.core.mo_spec import mo_ids, mo_spec
 
 MO_IDS = ["gym4real/dam-mo-v0", "gym4real/microgrid-mo-v0", "gym4real/wds-mo-v0"]
@@ -87,7 +87,7 @@ def test_reward_weights_give_each_component_its_objectives_weight() -> None:
 
 @pytest.mark.parametrize("env_id", MO_IDS)
 def test_objectives_sum_to_the_papers_objective(env_id: str) -> None:
-    from gym4real.core.benchmark import protocol
+    from gym4real.bench.benchmark import protocol
 
     used = sorted(c for o in mo_spec(env_id).objectives for c in o.components)
     assert used == sorted(protocol(env_id).objective)
@@ -112,7 +112,7 @@ def test_random_run_now_reproduces_the_shipped_episodes_on_a_short_protocol() ->
     reference = mo_reference.load(env_id)
     assert reference is not None
     plan, kwargs = mo_reference.test_plan(env_id)
-    from gym4real.core.policies import make_policy
+    from gym4real.bench.policies import make_policy
 
     now = mo_reference.run_objectives(env_id, lambda env: make_policy(env_id, "random", env), plan[:2], kwargs, "r")
     np.testing.assert_array_equal(now, reference.random_episodes[:2])
@@ -264,7 +264,7 @@ def test_tank_level_rule_at_the_default_levels_is_the_default_baseline() -> None
 
 
 def test_info_json_shows_the_objectives_and_the_reference_point(capsys: pytest.CaptureFixture[str]) -> None:
-    from gym4real.core.cli import main
+    from gym4real.cli import main
 
     main(["info", "gym4real/wds-mo-v0", "--json"])
     record = json.loads(capsys.readouterr().out)["multi_objective"]
@@ -300,7 +300,7 @@ def test_a_weight_conditioned_factory_is_asked_for_each_eum_weight_and_seed() ->
 
 
 def test_an_agents_hypervolume_is_the_mean_over_its_seeds_with_a_seed_and_episode_interval() -> None:
-    from gym4real.core.mo_eval import AgentRun, _agent_record
+    from gym4real.bench.mo_eval import AgentRun, _agent_record
 
     spec = mo_spec("gym4real/wds-mo-v0")
     scale = mo_reference.Scale(np.zeros(2), np.ones(2))  # raw values are normalised ones
@@ -327,7 +327,7 @@ def test_an_agents_hypervolume_is_the_mean_over_its_seeds_with_a_seed_and_episod
 
 @pytest.mark.slow
 def test_evaluate_mo_of_a_rule_based_sweep_reproduces_the_shipped_front(tmp_path: Path) -> None:
-    from gym4real.core.cli import main
+    from gym4real.cli import main
 
     env_id = "gym4real/dam-mo-v0"
     code = main(

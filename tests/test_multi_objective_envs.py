@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 import gym4real
-from gym4real.core.cli import main
-from gym4real.core.policies import make_policy
+from gym4real.bench.policies import make_policy
+from gym4real.cli import main
 from gym4real.core.registry import registry
 from gym4real.core.testing import check_contract
 

@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 import gym4real
-from gym4real.core.benchmark import run_episode
-from gym4real.core.cli import main
-from gym4real.core.offline import dataset_id
-from gym4real.core.policies import make_policy
+from gym4real.bench.benchmark import run_episode
+from gym4real.bench.policies import make_policy
+from gym4real.cli import main
+from gym4real.offline import dataset_id
 
 EXPERTS = {
     "gym4real/elevator-v0": "longest_first",
@@ -65,7 +65,7 @@ def assert_same_obs(obs: object, stored: object, t: int) -> None:
 NO_JAX = """
 import sys
 sys.modules["jax"] = None  # any `import jax` now raises ImportError
-from gym4real.core.cli import main
+from gym4real.cli import main
 code = main(["dataset", "collect", "gym4real/elevator-v0", "--policy", "longest_first", "--episodes", "2",
              "--out", sys.argv[1]])
 assert "jax" not in sys.modules or sys.modules["jax"] is None

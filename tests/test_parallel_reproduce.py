@@ -18,11 +18,11 @@ from typing import Any
 import numpy as np
 import pytest
 
-from gym4real.core.rl.estimate import budget_units, duration, estimate, wall_time
-from gym4real.core.rl.plan import Item, plan
-from gym4real.core.rl.progress import PlanProgress
-from gym4real.core.rl.runner import THREAD_LIMITS, train_plan
-from gym4real.core.rl.train import train
+from gym4real.results.estimate import budget_units, duration, estimate, wall_time
+from gym4real.results.plan import Item, plan
+from gym4real.results.runner import THREAD_LIMITS, train_plan
+from gym4real.rl.progress import PlanProgress
+from gym4real.rl.train import train
 
 # A PPO run of a few seconds on short dam episodes (the registered smoke preset trains for half a minute).
 DAM_PPO = """
@@ -114,7 +114,7 @@ def test_with_two_jobs_this_process_trains_from_the_plans_end_while_its_worker_s
 ) -> None:
     """A worker takes seconds to start: this process does not wait for it (the runs it trains here are the
     patched ``run_item``'s, which a spawned worker does not see)."""
-    from gym4real.core.rl import runner
+    from gym4real.results import runner
 
     items = _plan(tmp_path / "two", tmp_path)
     here: list[Item] = []
@@ -241,7 +241,7 @@ def local_ray() -> Iterator[Any]:
 @pytest.mark.slow
 def test_ray_trains_the_same_runs_as_one_job_through_the_storage(tmp_path: Path, local_ray: Any) -> None:
     pytest.importorskip("stable_baselines3")
-    from gym4real.core.rl.cluster import train_on_ray
+    from gym4real.results.cluster import train_on_ray
 
     one, on_ray = _plan(tmp_path / "one", tmp_path), _plan(tmp_path / "ray", tmp_path)
     train_plan(one, jobs=1)
@@ -269,7 +269,7 @@ def _ray_workers(function: str) -> list[int]:
 
 @pytest.mark.slow
 def test_a_run_whose_ray_worker_is_killed_resumes_from_the_storage(tmp_path: Path, local_ray: Any) -> None:
-    from gym4real.core.rl.cluster import train_on_ray
+    from gym4real.results.cluster import train_on_ray
 
     preset = tmp_path / "long.yaml"
     preset.write_text(LONG_QLEARNING)
@@ -301,7 +301,7 @@ def test_a_run_whose_ray_worker_is_killed_resumes_from_the_storage(tmp_path: Pat
 
 def test_the_storage_mirrors_a_run_folder_both_ways(tmp_path: Path) -> None:
     pytest.importorskip("pyarrow", reason="the `cluster` extra (pyarrow) is not installed")
-    from gym4real.core.rl.storage import Storage
+    from gym4real.rl.storage import Storage
 
     run = tmp_path / "run"
     (run / "checkpoint").mkdir(parents=True)
@@ -328,7 +328,7 @@ def test_the_storage_mirrors_a_run_folder_both_ways(tmp_path: Path) -> None:
 def test_reproduce_plan_prints_the_runs_and_the_wall_time_and_trains_nothing(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    from gym4real.core.cli import main
+    from gym4real.cli import main
 
     out = tmp_path / "out"
     assert (
@@ -365,7 +365,7 @@ def test_the_recorded_rates_are_within_a_factor_two_of_the_results_pages_measure
     """``--plan``'s recorded rate of every algorithm with a paper section on the committed page, against its runs."""
     import pandas as pd
 
-    from gym4real.core.rl.plan import plan
+    from gym4real.results.plan import plan
 
     sections = sorted((Path(__file__).resolve().parents[1] / "docs" / "results").glob("*-paper/runs.csv"))
     assert len(sections) >= 6

@@ -135,7 +135,7 @@ def test_the_example_plugin_installs_and_its_env_meets_the_contract(example_site
 
 
 def test_version_lists_every_installed_gym4real_distribution(example_site: Path) -> None:
-    out = run_with(example_site, "-m", "gym4real.core.cli", "--version").splitlines()
+    out = run_with(example_site, "-m", "gym4real.cli", "--version").splitlines()
     expected = [f"gym4real-core {_pyproject_version('gym4real-core')} (plugin API {PLUGIN_API_VERSION})"]
     installed = {d.name for d in importlib_metadata.distributions()}
     domains = sorted(p.parent.name for p in ROOT.glob("packages/gym4real-*/pyproject.toml"))

@@ -13,7 +13,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from gym4real.core.rl.published_models import MAX_BYTES, sha256_of
+from gym4real.results.published_models import MAX_BYTES, sha256_of
 
 RESULTS = Path(__file__).parents[1] / "docs" / "results"
 
@@ -25,7 +25,7 @@ def test_evaluating_a_published_model_reproduces_its_published_test_episodes(
     section: str, algo: str, seed: int
 ) -> None:
     pytest.importorskip("stable_baselines3")
-    from gym4real.core.evaluate import evaluate
+    from gym4real.bench.evaluate import evaluate
 
     folder = RESULTS / section
     report = json.loads((folder / "report.json").read_text())

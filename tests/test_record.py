@@ -12,12 +12,12 @@ import pytest
 from PIL import Image, ImageSequence
 
 import gym4real
+from gym4real.bench.policies import make_policy
+from gym4real.bench.record import CAPTION_CHARS, GifFrames, record, recording_mode
+from gym4real.cli import main
 from gym4real.core.canvas import CHAR_HEIGHT, captioned
-from gym4real.core.cli import main
 from gym4real.core.errors import Gym4RealError
-from gym4real.core.policies import baseline_names, make_policy
-from gym4real.core.record import CAPTION_CHARS, GifFrames, record, recording_mode
-from gym4real.core.registry import base_env, non_causal, registry
+from gym4real.core.registry import base_env, baseline_names, non_causal, registry
 
 IDS = gym4real.list_envs()
 
@@ -94,7 +94,7 @@ def test_record_writes_a_captioned_mp4_and_gif_per_episode(env_id: str, tmp_path
 
 
 def test_record_plays_a_trained_model_given_as_kind_path(tmp_path: Path) -> None:
-    from gym4real.core.rl.tabular import StateIndexer, save_qtable
+    from gym4real.rl.tabular import StateIndexer, save_qtable
 
     env_id = "gym4real/elevator-v0"
     indexer = StateIndexer(gym.make(env_id).observation_space)

@@ -13,9 +13,10 @@ import pandas as pd
 import pytest
 
 import gym4real
-from gym4real.core.benchmark import BenchmarkResult
-from gym4real.core.rl.plan import plan, presets, seeds
-from gym4real.core.rl.reproduce import pooled, reproduce
+from gym4real.bench.benchmark import BenchmarkResult
+from gym4real.bench.seeds import presets, seeds
+from gym4real.results.plan import plan
+from gym4real.results.reproduce import pooled, reproduce
 
 VERDICTS = {"holds", "refuted", "inconclusive"}
 
@@ -24,7 +25,7 @@ def _cli(*args: str) -> subprocess.CompletedProcess[str]:
     # only the trading plugin: `--all` then means one environment
     env = {**os.environ, "GYM4REAL_DISABLE_PLUGINS": "dam,elevator,microgrid,robofeeder,wds"}
     return subprocess.run(
-        [sys.executable, "-m", "gym4real.core.cli", "reproduce", *args],
+        [sys.executable, "-m", "gym4real.cli", "reproduce", *args],
         env=env,
         capture_output=True,
         text=True,
@@ -135,8 +136,8 @@ def test_pooling_an_algorithms_seeds_keeps_the_results_step_unit_and_objective()
 
 
 def test_the_learning_curve_band_stops_where_fewer_than_two_seeds_remain(tmp_path: Path) -> None:
-    from gym4real.core.rl.reproduce import _curves
-    from gym4real.core.rl.train import TrainingRun
+    from gym4real.results.reproduce import _curves
+    from gym4real.rl.train import TrainingRun
 
     runs = []
     for seed, length in ((0, 4), (1, 2)):  # seed 1 stopped early
@@ -178,8 +179,8 @@ def test_an_unknown_id_or_no_seed_is_refused_before_anything_runs(tmp_path: Path
 
 def test_seeds_is_a_count_or_a_list_of_seeds_in_reproduce_as_in_evaluate(tmp_path: Path) -> None:
     """`--seeds N`: the plan's first N seeds; `--seeds a,b,c`: these (one: `S,`); anything else is refused."""
+    from gym4real.bench.seeds import parse_seeds
     from gym4real.core.errors import ConfigError
-    from gym4real.core.rl.plan import parse_seeds
 
     assert parse_seeds("3") == 3 and parse_seeds("0,7") == [0, 7] and parse_seeds("7,") == [7]
     for bad in ("", "x", "0,,1", "1.5", "-1,"):
@@ -205,7 +206,7 @@ def test_seeds_is_a_count_or_a_list_of_seeds_in_reproduce_as_in_evaluate(tmp_pat
 def test_all_means_the_envs_with_a_paper_comparison(tmp_path: Path) -> None:
     env = {**os.environ, "GYM4REAL_DISABLE_PLUGINS": "elevator,microgrid,robofeeder,trading,wds"}
     done = subprocess.run(
-        [sys.executable, "-m", "gym4real.core.cli", "reproduce", "--all", "--plan", "--out", str(tmp_path)],
+        [sys.executable, "-m", "gym4real.cli", "reproduce", "--all", "--plan", "--out", str(tmp_path)],
         env=env,
         capture_output=True,
         text=True,

@@ -13,8 +13,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from gym4real.core.rl import fingerprints
-from gym4real.core.rl.published_models import sha256_of
+from gym4real.results import fingerprints
+from gym4real.results.published_models import sha256_of
 
 ROOT = Path(__file__).parents[1]
 RESULTS = ROOT / "docs" / "results"
@@ -24,7 +24,7 @@ def _cli(*args: str, plugins: str = "elevator") -> subprocess.CompletedProcess[s
     others = {"dam", "elevator", "microgrid", "robofeeder", "trading", "wds"} - set(plugins.split(","))
     env = {**os.environ, "GYM4REAL_DISABLE_PLUGINS": ",".join(sorted(others))}
     return subprocess.run(
-        [sys.executable, "-m", "gym4real.core.cli", "reproduce", *args],
+        [sys.executable, "-m", "gym4real.cli", "reproduce", *args],
         env=env,
         capture_output=True,
         text=True,
@@ -82,7 +82,7 @@ def test_a_truncated_qtable_stops_reproduce_naming_the_file_and_leaves_the_folde
     [("run.json", 10), ("checkpoint.npz", 40), ("checkpoint/state.json", 5)],
 )
 def test_every_damaged_run_file_is_named_with_its_run(tmp_path: Path, name: str, cut: int) -> None:
-    from gym4real.core.rl.run_files import DamagedRunError, check_run_folder
+    from gym4real.results.run_files import DamagedRunError, check_run_folder
 
     run = tmp_path / "seed3"
     (run / "checkpoint").mkdir(parents=True)
@@ -99,7 +99,7 @@ def test_every_damaged_run_file_is_named_with_its_run(tmp_path: Path, name: str,
 
 
 def test_a_section_lists_and_publishes_its_models_and_evaluate_reruns_them(elevator_quick: Path) -> None:
-    from gym4real.core.evaluate import evaluate
+    from gym4real.bench.evaluate import evaluate
 
     section = elevator_quick / "elevator-v0-quick"
     listing = json.loads((section / "models.json").read_text())

@@ -12,11 +12,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from gym4real.core import stats
-from gym4real.core.numbers import human, human_interval
+from gym4real.bench import stats
+from gym4real.bench.numbers import human, human_interval
 from gym4real.core.registry import registry
-from gym4real.core.rl.analysis import analyse
-from gym4real.core.rl.results_page import write_page
+from gym4real.results.analysis import analyse
+from gym4real.results.results_page import write_page
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -226,7 +226,7 @@ def test_the_page_folder_alone_regenerates_the_page(tmp_path: Path) -> None:
 def test_quick_verdicts_are_pipeline_checks_and_stale_sections_are_flagged_whatever_their_commit(
     tmp_path: Path,
 ) -> None:
-    from gym4real.core.rl.fingerprints import KEY, fingerprints
+    from gym4real.results.fingerprints import KEY, fingerprints
 
     out = tmp_path / "out"
     paper = _results_folder(out, "paper")
@@ -254,7 +254,7 @@ def test_quick_verdicts_are_pipeline_checks_and_stale_sections_are_flagged_whate
     ],
 )
 def test_the_page_prints_no_machine_path(text: str, shown: str) -> None:
-    from gym4real.core.rl.results_page import no_paths
+    from gym4real.results.results_page import no_paths
 
     assert no_paths(text).startswith(shown)
 
@@ -293,7 +293,7 @@ def test_the_page_opens_with_the_summary_figure_and_the_verdicts_and_ends_with_t
 
 
 def test_the_summary_figure_keeps_a_zero_width_interval_inside_its_axes() -> None:
-    from gym4real.core.rl import summary_figure
+    from gym4real.results import summary_figure
 
     summary = pd.DataFrame(
         [
@@ -313,7 +313,7 @@ def test_the_summary_figure_keeps_a_zero_width_interval_inside_its_axes() -> Non
 
 
 def test_the_workspace_heatmap_counts_each_episodes_success_in_its_cell(tmp_path: Path) -> None:
-    from gym4real.core.rl.workspace import success_grid
+    from gym4real.results.workspace import success_grid
 
     rng = np.random.default_rng(9)
     placements = pd.DataFrame({"episode": range(12), "u": rng.uniform(0, 100, 12), "v": rng.uniform(0, 50, 12)})
@@ -342,7 +342,7 @@ def test_the_workspace_heatmap_counts_each_episodes_success_in_its_cell(tmp_path
 
 def test_the_published_claims_are_decided_from_the_published_episodes_under_the_current_rules() -> None:
     """Every verdict of ``docs/results`` re-decides from its ``episodes.csv``; the ones issues 32 and 38 changed."""
-    from gym4real.core.rl.analysis import check_claims
+    from gym4real.results.analysis import check_claims
 
     page = ROOT / "docs" / "results"
     published = json.loads((page / "claims.json").read_text())
@@ -379,13 +379,13 @@ def test_the_picking_v0_section_shows_the_success_heatmap_of_ppo_and_fixed() -> 
     placements = pd.read_csv(folder / "placements.csv")
     episodes = pd.read_csv(folder / "episodes.csv")
     assert placements["episode"].tolist() == sorted(episodes["episode"].unique())  # one position per test episode
-    from gym4real.core.rl.workspace import success_policies
+    from gym4real.results.workspace import success_policies
 
     assert success_policies(folder) == ["ppo", "fixed"]
 
 
 def test_a_published_section_is_decided_again_from_its_episodes_alone(tmp_path: Path) -> None:
-    from gym4real.core.rl.analysis import recheck
+    from gym4real.results.analysis import recheck
 
     out = tmp_path / "out"
     folder = _results_folder(out, "paper")
@@ -395,8 +395,8 @@ def test_a_published_section_is_decided_again_from_its_episodes_alone(tmp_path: 
 
 
 def test_stand_in_sections_are_marked_and_say_how_they_differ_from_the_paper() -> None:
-    from gym4real.core.rl.presets import load_preset
-    from gym4real.core.rl.stand_ins import budget_mark, differences
+    from gym4real.results.stand_ins import budget_mark, differences
+    from gym4real.rl.presets import load_preset
 
     results = ROOT / "docs" / "results"
     trading = json.loads((results / "trading-v0-paper" / "report.json").read_text())

@@ -12,15 +12,15 @@ import numpy as np
 import pytest
 
 from gym4real.core.errors import ConfigError
-from gym4real.core.rl.presets import load_preset
-from gym4real.core.rl.schedules import (
+from gym4real.rl.presets import load_preset
+from gym4real.rl.schedules import (
     SB3_DEFAULT_LEARNING_RATE,
     KLAdaptive,
     KLAdaptiveRate,
     learning_rate_words,
     schedule,
 )
-from gym4real.core.rl.train import train
+from gym4real.rl.train import train
 
 
 def test_cosine_is_the_reference_microgrid_annealing() -> None:
@@ -113,7 +113,7 @@ def test_ppo_adapts_its_rate_after_each_epoch_from_sb3s_kl_estimate() -> None:
     pytest.importorskip("stable_baselines3")
     import gymnasium as gym
 
-    from gym4real.core.rl.skrl_ppo import SkrlPPO
+    from gym4real.rl.skrl_ppo import SkrlPPO
 
     spec = KLAdaptive(schedule="kl_adaptive", initial=3e-3, kl_threshold=1e-3, max=1.0)
     model = SkrlPPO(
@@ -153,7 +153,7 @@ def test_a_resumed_run_starts_from_its_saved_rate_and_value_statistics(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     pytest.importorskip("stable_baselines3")
-    from gym4real.core.rl import skrl_ppo
+    from gym4real.rl import skrl_ppo
 
     class _Interrupt(Exception):
         pass
@@ -198,7 +198,7 @@ def test_running_standard_scaler_merges_batches_as_skrl() -> None:
     pytest.importorskip("stable_baselines3")
     import torch as th
 
-    from gym4real.core.rl.skrl_ppo import RunningStandardScaler
+    from gym4real.rl.skrl_ppo import RunningStandardScaler
 
     rng = np.random.default_rng(0)
     batches = [rng.normal(3.0, 2.0, size=(64, 2)), rng.normal(-1.0, 0.5, size=(32, 2)), rng.normal(7.0, 1.0, 5)]
@@ -220,7 +220,7 @@ def test_ppo_value_targets_are_standardised_as_skrls_value_preprocessor() -> Non
     import gymnasium as gym
     import torch as th
 
-    from gym4real.core.rl.skrl_ppo import RunningStandardScaler, SkrlPPO
+    from gym4real.rl.skrl_ppo import RunningStandardScaler, SkrlPPO
 
     scaler = RunningStandardScaler(mean=10.0, var=4.0, count=50.0)  # a scale the untrained net does not have
     model = SkrlPPO("MlpPolicy", gym.make("CartPole-v1"), value_scaler=scaler, n_steps=64, batch_size=16, seed=0)

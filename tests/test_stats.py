@@ -1,4 +1,4 @@
-"""The estimators of ``gym4real.core.stats`` against brute-force enumeration, and the claim rules."""
+"""The estimators of ``gym4real.bench.stats`` against brute-force enumeration, and the claim rules."""
 
 from __future__ import annotations
 
@@ -10,10 +10,10 @@ import pandas as pd
 import pytest
 from scipy import stats as sps
 
-from gym4real.core import stats
-from gym4real.core.rl.claims import check_claim
-from gym4real.core.rl.provenance import selected_checkpoint
+from gym4real.bench import stats
 from gym4real.core.specs import Claim
+from gym4real.results.claims import check_claim
+from gym4real.results.provenance import selected_checkpoint
 
 REPS = 40_000
 #: Four standard errors of a frequency estimated from REPS replicates (at most 0.5 / sqrt(REPS)).
@@ -263,7 +263,7 @@ def test_a_negative_claim_is_the_negation_of_its_positive_claim() -> None:
 
 
 def test_a_success_claim_compares_success_rates_and_shows_the_objective_beside() -> None:
-    from gym4real.core.rl.claims import quantity_scores
+    from gym4real.results.claims import quantity_scores
 
     rows = []
     for policy, seeds, rate in (("ppo", (0, 1), 0.75), ("fixed", (None,), 0.25)):

@@ -1,6 +1,6 @@
 """The trainer fingerprint's version number is pinned to what the training code trains.
 
-``gym4real.core.rl.fingerprints.TRAINER_VERSION`` says which training code a results section's models came
+``gym4real.results.fingerprints.TRAINER_VERSION`` says which training code a results section's models came
 from, so that a section trained by an older commit stays *current* while the training code's output is
 unchanged. Two fixed-seed smoke runs (PPO through Stable-Baselines3 on dam, tabular Q-learning on elevator;
 their settings are written here, not taken from the registered presets) must train exactly the weights whose
@@ -102,7 +102,7 @@ def parameters_sha256(model: Path) -> str:
 
 def smoke_run(algo: str, folder: Path) -> str:
     """Train the smoke run of ``algo`` in ``folder``; the hash of its parameters."""
-    from gym4real.core.rl.train import train
+    from gym4real.rl.train import train
 
     env_id, seed, settings = RUNS[algo]
     preset = folder / f"{algo}.yaml"
@@ -113,7 +113,7 @@ def smoke_run(algo: str, folder: Path) -> str:
 
 @pytest.mark.parametrize("algo", sorted(RUNS))
 def test_the_smoke_run_trains_the_weights_of_the_trainer_version(algo: str, tmp_path: Path) -> None:
-    from gym4real.core.rl.fingerprints import TRAINER_VERSION
+    from gym4real.results.fingerprints import TRAINER_VERSION
 
     if algo == "ppo":
         pytest.importorskip("stable_baselines3")

@@ -11,11 +11,11 @@ import pandas as pd
 import pytest
 
 import gym4real
+from gym4real.bench.policies import make_policy
 from gym4real.core.errors import ConfigError, PolicyError
-from gym4real.core.policies import make_policy
 from gym4real.core.registry import registry
-from gym4real.core.rl.presets import load_preset
-from gym4real.core.rl.train import default_out, train
+from gym4real.rl.presets import load_preset
+from gym4real.rl.train import default_out, train
 
 SMOKE = sorted((e, a) for (e, a, p) in registry().trainings if p == "smoke" and e in gym4real.list_envs())
 
@@ -55,7 +55,7 @@ def test_model_of_another_env_is_refused(tmp_path: Path) -> None:
 def test_qtable_of_another_env_is_refused(tmp_path: Path) -> None:
     import numpy as np
 
-    from gym4real.core.rl.tabular import save_qtable
+    from gym4real.rl.tabular import save_qtable
 
     save_qtable(tmp_path / "q.npz", np.zeros((10, 3)), "gym4real/other-v0", "qlearning", np.array([10]))
     env = gym.make("gym4real/elevator-v0")
@@ -75,7 +75,7 @@ def test_box_actions_are_learnt_on_minus_one_one_and_mapped_back() -> None:
     pytest.importorskip("stable_baselines3")
     import numpy as np
 
-    from gym4real.core.rl.sb3 import NormalizedPolicy, rescaled
+    from gym4real.rl.sb3 import NormalizedPolicy, rescaled
 
     box = gym.spaces.Box(0.0, 491.61, (1,), np.float32)
     assert rescaled(box) and not rescaled(gym.spaces.Box(-1.0, 1.0, (3,))) and not rescaled(gym.spaces.Discrete(3))
@@ -156,7 +156,7 @@ def _elevator_preset(tmp_path: Path, **edits: str) -> str:
 
 
 def test_tabular_learning_curve_advances_in_episodes(tmp_path: Path) -> None:
-    from gym4real.core.rl.curves import LearningCurve
+    from gym4real.rl.curves import LearningCurve
 
     preset = _elevator_preset(tmp_path, episodes="6", eval_episodes="2", patience="10")
     run = train("gym4real/elevator-v0", "qlearning", preset, seed=1, out=tmp_path / "run")
@@ -173,7 +173,7 @@ def test_compiled_and_python_tabular_loops_learn_the_same_table(algo: str, fidel
     pytest.importorskip("numba")
     import numpy as np
 
-    from gym4real.core.rl.tabular import train_tabular
+    from gym4real.rl.tabular import train_tabular
 
     hp = load_preset("gym4real/elevator-v0", algo, _elevator_preset(tmp_path, algo=algo, episodes="5"))
     hp["env_kwargs"] = hp["eval_env_kwargs"] = {"duration": 200, "fidelity": fidelity}
@@ -190,7 +190,7 @@ def test_compiled_and_python_tabular_loops_learn_the_same_table(algo: str, fidel
 
 
 def test_tabular_model_selection_never_sees_the_test_seeds(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    from gym4real.core.benchmark import protocol
+    from gym4real.bench.benchmark import protocol
     from gym4real.core.registry import load_object
 
     resets: dict[int, list[int | None]] = {}  # seeds of each env instance, in order of first reset
@@ -209,7 +209,7 @@ def test_tabular_model_selection_never_sees_the_test_seeds(tmp_path: Path, monke
 
 
 def test_every_registered_preset_selects_on_seeds_disjoint_from_the_test_protocol(tmp_path: Path) -> None:
-    from gym4real.core.rl.train import check_no_test_overlap
+    from gym4real.rl.train import check_no_test_overlap
 
     for env_id, algo, preset in registry().trainings:
         check_no_test_overlap(env_id, algo, preset)
@@ -333,7 +333,7 @@ def test_a_run_killed_while_writing_a_checkpoint_resumes_from_the_one_before(
 
 
 def test_dam_and_wds_select_their_models_on_held_out_data() -> None:
-    from gym4real.core.benchmark import protocol
+    from gym4real.bench.benchmark import protocol
     from gym4real.core.registry import load_object
 
     dam = load_preset("gym4real/dam-v0", "ppo", "paper")
@@ -361,7 +361,7 @@ def test_a_copy_outside_git_records_the_code_version_its_launcher_states(
 ) -> None:
     import subprocess
 
-    from gym4real.core.rl import train as train_module
+    from gym4real.rl import train as train_module
 
     def no_git(*args: object, **kwargs: object) -> subprocess.CompletedProcess[str]:
         return subprocess.CompletedProcess(args, 128, "", "fatal: not a git repository")

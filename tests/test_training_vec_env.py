@@ -12,8 +12,8 @@ pytest.importorskip("stable_baselines3")
 from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import DummyVecEnv, VecCheckNan
 
-from gym4real.core.rl.sb3 import _rescale
-from gym4real.core.rl.vec_env import TrainingVecEnv
+from gym4real.rl.sb3 import _rescale
+from gym4real.rl.vec_env import TrainingVecEnv
 
 CASES = [
     # Box actions rescaled to [-1, 1], episodes of 24 decisions: several autoresets in 60 steps

@@ -36,7 +36,7 @@ print("weighted reward:", reward, "vector:", info["vector_reward"])
 # ## Episode statistics per objective
 # `MORecordEpisodeStatistics` reports the vector return of each finished episode (one year of the dam),
 # here for the `ead` baseline, which releases an exponential average of the past demands.
-from gym4real.core.policies import make_policy  # noqa: E402
+from gym4real.bench.policies import make_policy  # noqa: E402
 
 env = mo_gym.wrappers.MORecordEpisodeStatistics(gym.make("gym4real/dam-mo-v0"), gamma=1.0)
 policy = make_policy("gym4real/dam-mo-v0", "ead", env)

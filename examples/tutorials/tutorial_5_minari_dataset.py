@@ -1,7 +1,7 @@
 """# Collect a Minari dataset and load it
 
 Offline RL and imitation learning start from recorded episodes. `gym4real dataset collect` (or
-`gym4real.core.offline.collect`) runs a policy for seeded episodes and writes them as a
+`gym4real.offline.collect`) runs a policy for seeded episodes and writes them as a
 [Minari](https://minari.farama.org) dataset (extra `offline`).
 """
 
@@ -16,7 +16,7 @@ from pathlib import Path
 
 import minari
 
-from gym4real.core.offline import collect, dataset_id
+from gym4real.offline import collect, dataset_id
 
 out = tempfile.mkdtemp()
 with warnings.catch_warnings():  # Minari asks a published dataset for a code link and a contact: not this one

@@ -12,8 +12,8 @@ import gymnasium as gym
 import numpy as np
 
 import gym4real  # noqa: F401  (registers the ids)
-from gym4real.core.benchmark import run_episode
-from gym4real.core.policies import make_policy
+from gym4real.bench.benchmark import run_episode
+from gym4real.bench.policies import make_policy
 from gym4real.wrappers import LEVELS, challenge
 
 for level, settings in LEVELS.items():

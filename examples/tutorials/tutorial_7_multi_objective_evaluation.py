@@ -21,7 +21,7 @@ import numpy as np
 from stable_baselines3 import PPO
 
 import gym4real  # noqa: F401  (registers the ids)
-from gym4real.core.mo_reference import summary
+from gym4real.bench.mo_reference import summary
 from gym4real.core.mo_spec import mo_spec
 
 ENV_ID = "gym4real/wds-mo-v0"
@@ -58,7 +58,7 @@ print([p.replace(str(runs), "runs") for p in policies])
 # agents; a weight-conditioned factory `factory(env, weights=w, seed=S)` is run at each of the EUM's 50
 # weights instead. Hypervolume and EUM are on the normalised scale (reference point 0, random's best test
 # episode 1), with 95 % bootstrap intervals over test episodes (and training seeds, with `seeds=`).
-from gym4real.core.mo_eval import evaluate_mo  # noqa: E402
+from gym4real.bench.mo_eval import evaluate_mo  # noqa: E402
 
 result = evaluate_mo({"ppo": policies}, [ENV_ID], out=runs / "evaluation")
 print(result.table())

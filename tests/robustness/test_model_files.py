@@ -17,9 +17,9 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from gym4real.core.cli import main
+from gym4real.bench.policies import make_policy
+from gym4real.cli import main
 from gym4real.core.errors import PolicyError
-from gym4real.core.policies import make_policy
 
 pytest.importorskip("stable_baselines3")
 
@@ -66,7 +66,7 @@ def _saved_model(kind: str, env_id: str, path: Path) -> None:
     import stable_baselines3 as sb3
     import torch
 
-    from gym4real.core.rl.sb3 import _rescale
+    from gym4real.rl.sb3 import _rescale
 
     env = _rescale(gym.make(env_id))
     policy = "MultiInputPolicy" if isinstance(env.observation_space, gym.spaces.Dict) else "MlpPolicy"
@@ -78,7 +78,7 @@ def _saved_model(kind: str, env_id: str, path: Path) -> None:
         model = sb3.A2C(policy, env, n_steps=8, seed=0, device="cpu", policy_kwargs=kwargs)
     else:  # an off-policy algorithm of SB3 or sb3-contrib
         from gym4real.core.registry import load_object
-        from gym4real.core.rl.model_file import SB3_ALGOS
+        from gym4real.rl.model_file import SB3_ALGOS
 
         algo_cls = load_object(SB3_ALGOS[algo])
         model = algo_cls(policy, env, buffer_size=100, learning_starts=10, seed=0, device="cpu")
@@ -205,7 +205,7 @@ def test_an_algorithm_sb3_does_not_ship_is_refused(tmp_path: Path) -> None:
 
 def test_the_data_entry_of_a_model_on_camera_images_is_read(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """SB3 prints the observation space's bounds into ``data``: 10.8 MB for picking-v1's 1 x 300 x 300 frames."""
-    from gym4real.core.rl import model_file
+    from gym4real.rl import model_file
 
     bounds = "[[[0. " + "0. " * 1_800_000 + "]]]"  # as long as SB3's text of the bounds in picking-v1's model
     space = {":type:": "<class 'gymnasium.spaces.box.Box'>", "low": bounds, "high": bounds, "shape": [1, 300, 300]}

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import gym4real
-from gym4real.core.cli import main
-from gym4real.core.offline import dataset_id
+from gym4real.cli import main
+from gym4real.offline import dataset_id
 
 CASES = [
     (e, p, o)

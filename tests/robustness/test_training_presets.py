@@ -9,7 +9,7 @@ import pytest
 import yaml
 
 from gym4real.core.errors import ConfigError
-from gym4real.core.rl.presets import load_preset
+from gym4real.rl.presets import load_preset
 
 TABULAR: dict[str, Any] = {
     "algo": "qlearning",

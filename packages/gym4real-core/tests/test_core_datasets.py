@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pytest
 
+from gym4real.cli import main
 from gym4real.core import datasets
-from gym4real.core.cli import main
 from gym4real.core.errors import DataFileError, DataUnreachableError
 from gym4real.core.registry import Registry
 from gym4real.core.specs import DatasetSpec

@@ -3,7 +3,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gym4real.core import stats
+from gym4real.bench import stats
 from gym4real.core.specs import BaselineSpec, EnvSpec
 
 
@@ -83,8 +83,8 @@ def test_verdict_reads_the_interval_of_the_difference(relation: str, interval: t
 
 
 def test_a_claim_holds_only_when_every_comparison_holds() -> None:
-    from gym4real.core.rl.claims import check_claim
     from gym4real.core.specs import Claim
+    from gym4real.results.claims import check_claim
 
     rng = np.random.default_rng(2)
     base = rng.normal(0, 1, size=(1, 30))

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy import stats as sps
 
-from gym4real.core import stats, suite_score
+from gym4real.bench import stats, suite_score
 
 #: A scale that leaves scores as they are (0 -> 0, 1 -> 1), for tests of the aggregate alone.
 IDENTITY = suite_score.Scale("e", 0.0, "one", 1.0)

@@ -7,12 +7,12 @@ import numpy as np
 import pytest
 
 import gym4real
-from gym4real.core import stats, suite_score
-from gym4real.core.cli import main
+from gym4real.bench import stats, suite_score
+from gym4real.bench.upper_reference import PlanCache, check_agent, check_protocol, headroom
+from gym4real.cli import main
 from gym4real.core.errors import ConfigError
 from gym4real.core.info import summary, summary_text
 from gym4real.core.registry import list_envs, non_causal, registry
-from gym4real.core.upper_reference import PlanCache, check_agent, check_protocol, headroom
 
 TRADING = "gym4real/trading-v0"
 

@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 
 import gym4real
-from gym4real.core.rl.presets import load_preset
 from gym4real.dam import DamEnv, evaluation
 from gym4real.dam.baselines import ead, historical, historical_replay, max_release, mean
 from gym4real.dam.evaluation import TEST_YEARS
 from gym4real.dam.historical import reconstruct_releases, reconstruction_report
+from gym4real.rl.presets import load_preset
 
 ENV_ID = "gym4real/dam-v0"
 
@@ -141,7 +141,7 @@ def test_rl_presets_hold_the_papers_hyperparameters() -> None:
 
 def test_smoke_training_runs_and_the_model_benchmarks(tmp_path: Path) -> None:
     pytest.importorskip("stable_baselines3")
-    from gym4real.core.rl.train import train
+    from gym4real.rl.train import train
 
     run = train(ENV_ID, "ppo", "smoke", seed=0, out=tmp_path)
     assert run.model_path.is_file() and run.curve_csv.is_file()

@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 
 import gym4real
-from gym4real.core import stats
+from gym4real.bench import stats
 from gym4real.dam.hindsight import DamHindsight
 
 pytest.importorskip("numba")
@@ -95,7 +95,7 @@ def test_plans_are_cached_by_their_inputs(tmp_path: Path, monkeypatch: pytest.Mo
 def test_hindsight_is_registered_non_causal() -> None:
     info = gym4real.env_info(ENV)
     assert "hindsight" in info.baselines and info.non_causal == ("hindsight",)
-    from gym4real.core.upper_reference import check_protocol
+    from gym4real.bench.upper_reference import check_protocol
 
     check_protocol(ENV)
 

@@ -6,7 +6,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from gym4real.core.policies import make_policy
+from gym4real.bench.policies import make_policy
 
 pytest.importorskip("numba")
 

@@ -7,8 +7,8 @@ import pytest
 
 pytest.importorskip("numba")
 
-from gym4real.core.rl.tabular import StateIndexer
 from gym4real.elevator import ElevatorEnv
+from gym4real.rl.tabular import StateIndexer
 
 
 def _flat(obs: dict, indexer: StateIndexer) -> list[int]:

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gym4real.core.benchmark import run_episode
+from gym4real.bench.benchmark import run_episode
 from gym4real.core.errors import PolicyError
 from gym4real.core.policies import ConstantPolicy
 from gym4real.core.registry import registry

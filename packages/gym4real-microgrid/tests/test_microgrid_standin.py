@@ -49,7 +49,7 @@ def test_the_train_preset_runs_on_the_stand_in_and_says_so(tmp_path: Path, monke
 def test_the_provenance_of_a_run_records_the_stand_in_it_reads_with_its_hash(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from gym4real.core.rl.provenance import data_files
+    from gym4real.results.provenance import data_files
 
     monkeypatch.setenv("GYM4REAL_CACHE_DIR", str(tmp_path / "cache"))
     row = next(r for r in data_files("gym4real/microgrid-v0") if r["name"] == standin.STANDS_IN_FOR)
@@ -90,7 +90,7 @@ def test_gym4real_info_says_which_training_households_the_train_preset_reads(
 
 
 def test_synthesize_names_a_domain_without_a_stand_in(capsys: pytest.CaptureFixture[str]) -> None:
-    from gym4real.core.cli import main
+    from gym4real.cli import main
 
     assert main(["data", "synthesize", "dam"]) != 0
     assert "domain `dam` has no stand-in data" in capsys.readouterr().err
@@ -115,7 +115,7 @@ def test_training_on_fewer_stand_in_households_than_the_papers_warns_once_naming
 def test_data_list_shows_the_stand_in_in_place_of_the_missing_training_file(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    from gym4real.core.cli import main
+    from gym4real.cli import main
 
     monkeypatch.setenv("GYM4REAL_CACHE_DIR", str(tmp_path / "cache"))
     assert datasets.find(standin.STANDS_IN_FOR) is None  # the paper's file is not in the data folder
@@ -134,7 +134,7 @@ def test_synthesize_without_the_load_model_says_how_to_install_it_before_anythin
 ) -> None:
     import sys
 
-    from gym4real.core.cli import main
+    from gym4real.cli import main
 
     monkeypatch.setenv("GYM4REAL_CACHE_DIR", str(tmp_path / "cache"))
     monkeypatch.setitem(sys.modules, "richardsonpy", None)  # not installed: its import fails
@@ -147,7 +147,7 @@ def test_synthesize_without_the_load_model_says_how_to_install_it_before_anythin
 def test_synthesize_states_the_expected_time_of_the_requested_households(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    from gym4real.core.cli import main
+    from gym4real.cli import main
     from gym4real.microgrid.data import SECONDS_PER_HOUSEHOLD
 
     written: list[tuple[int, int]] = []
@@ -169,8 +169,8 @@ def test_reproduce_without_either_training_file_names_the_command_that_writes_th
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     pytest.importorskip("stable_baselines3")
-    from gym4real.core.rl.reproduce import reproduce
     from gym4real.microgrid.data import SECONDS_PER_HOUSEHOLD
+    from gym4real.results.reproduce import reproduce
 
     monkeypatch.setenv("GYM4REAL_CACHE_DIR", str(tmp_path / "cache"))
     text = reproduce(["gym4real/microgrid-v0"], "paper", 1, tmp_path / "out")

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gym4real.core.benchmark import benchmark
+from gym4real.bench.benchmark import benchmark
 from gym4real.robofeeder import figures
 from gym4real.robofeeder.evaluation import planning_test_episodes
 from gym4real.robofeeder.evaluation import test_episodes as protocol

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gym4real.core.record import GifFrames, record
+from gym4real.bench.record import GifFrames, record
 from gym4real.robofeeder.env import RoboFeederPickingEnv
 
 

@@ -67,7 +67,7 @@ def test_benchmark_of_the_baselines(tmp_path: Path) -> None:
 
 
 def test_the_test_protocol_says_it_runs_on_the_hourly_stand_in() -> None:
-    from gym4real.core.benchmark import protocol
+    from gym4real.bench.benchmark import protocol
     from gym4real.trading.config import TradingConfig
 
     spec = protocol("gym4real/trading-v0")

@@ -74,8 +74,8 @@ def test_plan_day_refuses_a_day_without_two_finite_prices() -> None:
 
 
 def test_hindsight_is_registered_non_causal_and_outside_the_scale_and_claims() -> None:
+    from gym4real.bench.upper_reference import check_protocol
     from gym4real.core.registry import non_causal
-    from gym4real.core.upper_reference import check_protocol
 
     assert non_causal(ENV) == ["hindsight"]
     info = gym4real.env_info(ENV)

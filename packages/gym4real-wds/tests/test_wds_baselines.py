@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 import gym4real  # noqa: F401
-from gym4real.core.benchmark import benchmark
+from gym4real.bench.benchmark import benchmark
+from gym4real.bench.policies import make_policy
 from gym4real.core.datasets import resolve
-from gym4real.core.policies import make_policy
-from gym4real.core.rl.presets import load_preset
+from gym4real.rl.presets import load_preset
 from gym4real.wds import WDSEnv, evaluation
 
 ENV_ID = "gym4real/wds-v0"

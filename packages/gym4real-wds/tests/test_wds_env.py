@@ -117,7 +117,7 @@ def test_same_seed_same_trajectory_and_different_seed_differs(env: WDSEnv) -> No
 @pytest.mark.parametrize("fidelity", ["corrected", "upstream"])
 def test_an_episode_does_not_depend_on_the_episodes_before(fidelity: str) -> None:
     """The tank-level rule of `default` fills and drains the tanks to their limits, where tanks are snapped."""
-    from gym4real.core.policies import make_policy
+    from gym4real.bench.policies import make_policy
 
     def rewards(env: WDSEnv, seed: int) -> list[float]:
         policy = make_policy("gym4real/wds-v0", "default", env)

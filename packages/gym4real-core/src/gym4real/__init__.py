@@ -20,19 +20,19 @@ from gym4real.core import (
 )
 
 if TYPE_CHECKING:  # imported lazily at run time (``__getattr__``)
-    from gym4real.core.benchmark import benchmark
-    from gym4real.core.evaluate import evaluate
+    from gym4real.bench.benchmark import benchmark
+    from gym4real.bench.evaluate import evaluate
 
 __all__ = ["benchmark", "env_info", "evaluate", "list_envs", "make", "plugin_errors", "register_envs"]
 
 
 def __getattr__(name: str) -> object:
     if name == "benchmark":  # imports pandas: only on first use
-        from gym4real.core.benchmark import benchmark
+        from gym4real.bench.benchmark import benchmark
 
         return benchmark
     if name == "evaluate":  # imports pandas and scipy: only on first use
-        from gym4real.core.evaluate import evaluate
+        from gym4real.bench.evaluate import evaluate
 
         return evaluate
     raise AttributeError(f"module `gym4real` has no attribute `{name}`")

@@ -1,4 +1,8 @@
-"""Core of Gym4ReaL: plugin registry, configuration, datasets, policies and the benchmark harness."""
+"""The plugin host of Gym4ReaL: the registry of plugins, their records, configuration, datasets, errors.
+
+Measurement (:mod:`gym4real.bench`), training (:mod:`gym4real.rl`), publishing (:mod:`gym4real.results`) and
+the command (:mod:`gym4real.cli`) are layers above it; this package imports none of them.
+"""
 
 from __future__ import annotations
 
@@ -32,13 +36,10 @@ def make(env_id: str, **kwargs: Any) -> Any:
 
 
 if TYPE_CHECKING:
-    from gym4real.core.benchmark import BenchmarkResult, benchmark
     from gym4real.core.config import EnvConfig, Fidelity
 
 # Imported on first use, so that `import gym4real` (plugin discovery) stays cheap.
 _LAZY = {
-    "BenchmarkResult": "gym4real.core.benchmark",
-    "benchmark": "gym4real.core.benchmark",
     "EnvConfig": "gym4real.core.config",
     "Fidelity": "gym4real.core.config",
 }
@@ -59,7 +60,6 @@ __all__ = [
     "PLUGIN_API_VERSION",
     "ActionError",
     "BaselineSpec",
-    "BenchmarkResult",
     "BenchmarkSpec",
     "ConfigError",
     "DataFileError",
@@ -73,7 +73,6 @@ __all__ = [
     "PluginLoadError",
     "PolicyError",
     "TrainingSpec",
-    "benchmark",
     "env_info",
     "hookimpl",
     "list_envs",

@@ -6,7 +6,7 @@ module ``gym4real.<domain>.multi_objective``, as a tuple ``SPECS`` of :class:`Mu
 objective is the per-episode sum of some of the env's reward components, maximised; components a
 trade-off does not need (shaping terms) are left out and the spec says why. Each :class:`Sweep` is a
 rule-based baseline with a parameter, whose policies give a reference front
-(:mod:`gym4real.core.mo_reference`).
+(:mod:`gym4real.bench.mo_reference`).
 """
 
 from __future__ import annotations

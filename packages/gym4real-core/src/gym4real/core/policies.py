@@ -1,33 +1,16 @@
-"""Policies for the benchmark harness: registered baselines, trained models, your own code, plain callables.
+"""The policy protocol and the plain policies of the plugin API.
 
 A policy is a callable ``obs -> action``. It may define ``reset(seed)``, which the harness calls at
 the start of each episode with that episode's seed. Plugins register baselines as factories,
-``factory(env) -> policy``, so a policy can read the environment it acts in.
-
-A policy string is one of:
-
-- a baseline name (``longest_first``);
-- a model file, read as data (never unpickled): ``ppo:PATH``, ``dqn:PATH``, ``qlearning:PATH``,
-  ``sarsa:PATH``, or ``sb3:ALGO:PATH`` for a Stable-Baselines3 model of any algorithm SB3 ships (and of
-  sb3-contrib's CrossQ, QRDQN, TQC, TRPO);
-- ``module:attr``, your own code, which is imported and run (trust it as you trust a plugin): a
-  function or class is a factory ``factory(env) -> policy`` (``factory(env, seed=S)`` when seeds are
-  asked for), any other callable object is the policy itself.
+``factory(env) -> policy``, so a policy can read the environment it acts in. Policy strings (baselines,
+model files, your own code) are resolved by :mod:`gym4real.bench.policies`.
 """
 
 from __future__ import annotations
 
-import inspect
-import re
-from collections.abc import Callable
-from pathlib import Path
 from typing import Any, Protocol
 
 import gymnasium as gym
-
-from gym4real.core.errors import PolicyError
-from gym4real.core.registry import base_env, load_object, registry
-from gym4real.wrappers.multi_objective import MultiObjective
 
 
 class Policy(Protocol):
@@ -67,150 +50,3 @@ class ConstantPolicy:
 def random_policy(env: gym.Env[Any, Any]) -> RandomPolicy:
     """Baseline factory: uniform random actions (every env registers it as ``random``)."""
     return RandomPolicy(env)
-
-
-#: Prefix of a ``kind:path`` policy string -> ``"module:loader"``; ``loader(env, path)`` returns a policy.
-MODEL_LOADERS: dict[str, str] = {
-    "ppo": "gym4real.core.rl.sb3:load_ppo",
-    "dqn": "gym4real.core.rl.sb3:load_dqn",
-    "qlearning": "gym4real.core.rl.tabular:load_policy",
-    "sarsa": "gym4real.core.rl.tabular:load_policy",
-}
-
-#: Prefix of ``sb3:ALGO:PATH``, a Stable-Baselines3 model of any algorithm it ships.
-SB3_KIND = "sb3"
-
-#: ``module:attr`` of the user's own code (dotted names on both sides; a path has ``/`` or ``\\``).
-USER_OBJECT = re.compile(r"^[A-Za-z_]\w*(\.[A-Za-z_]\w*)*:[A-Za-z_]\w*(\.[A-Za-z_]\w*)*$")
-
-#: The policy strings, for error messages.
-POLICY_FORMS = (
-    "a baseline name, `ppo:PATH`, `dqn:PATH`, `qlearning:PATH`, `sarsa:PATH`, `sb3:ALGO:PATH` (a Stable-Baselines3 "
-    "model of A2C, DDPG, DQN, PPO, SAC, TD3, or sb3-contrib's CrossQ, QRDQN, TQC, TRPO) or `module:attr` (your own "
-    "factory or policy, imported)"
-)
-
-
-def is_user_object(policy: str) -> bool:
-    """Whether a policy string names the user's own code (``module:attr``), not a model file or baseline."""
-    kind = policy.partition(":")[0]
-    return kind not in MODEL_LOADERS and kind != SB3_KIND and bool(USER_OBJECT.match(policy))
-
-
-def _accepts_seed(factory: Callable[..., Any]) -> bool:
-    try:
-        parameters = inspect.signature(factory).parameters
-    except (TypeError, ValueError):  # a builtin without a signature
-        return False
-    return "seed" in parameters or any(p.kind is inspect.Parameter.VAR_KEYWORD for p in parameters.values())
-
-
-def build_policy(obj: Any, env: gym.Env[Any, Any], name: str, seed: int | None = None) -> Callable[[Any], Any]:
-    """The policy that a factory or policy object gives for ``env``.
-
-    Args:
-        obj: A function or class (a factory, called ``obj(env)``, or ``obj(env, seed=seed)`` when ``seed`` is
-            given), or any other callable object (the policy itself).
-        env: The environment the policy will act in.
-        name: How the user named it, for error messages.
-        seed: The training seed of the policy asked for (the unit of replication), or None for one policy.
-
-    Raises:
-        PolicyError: Not callable, a factory that returns no policy, or a seed asked of what cannot take one.
-    """
-    if inspect.isfunction(obj) or inspect.ismethod(obj) or isinstance(obj, type):
-        if seed is None:
-            built = obj(env)
-        elif _accepts_seed(obj):
-            built = obj(env, seed=seed)
-        else:
-            raise PolicyError(
-                f"`{name}` takes no `seed`, so every seed would be the same policy: give it a `seed` keyword "
-                "argument (`def factory(env, seed)`), or evaluate one seed"
-            )
-        if not callable(built):
-            raise PolicyError(
-                f"`{name}` returned {type(built).__name__}, not a policy: a function or class given as a policy is a "
-                "factory `factory(env) -> policy`; for a plain `obs -> action` function `act`, pass `lambda env: act`"
-            )
-        return built
-    if not callable(obj):
-        raise PolicyError(f"`{name}` is a {type(obj).__name__}, not a policy or a factory of policies")
-    if seed is not None:
-        raise PolicyError(
-            f"`{name}` is one policy object, so it cannot be several seeds: give a factory `factory(env, seed)` "
-            "instead, or evaluate one seed"
-        )
-    policy: Callable[[Any], Any] = obj
-    return policy
-
-
-def user_policy(policy: str, env: gym.Env[Any, Any], seed: int | None = None) -> Callable[[Any], Any]:
-    """Import ``module:attr`` (the user's own code: it runs) and build its policy for ``env``.
-
-    Raises:
-        PolicyError: The module or attribute cannot be imported, or what it names is no policy (see
-            :func:`build_policy`).
-    """
-    try:
-        obj = load_object(policy)
-    except ImportError as exc:
-        raise PolicyError(
-            f"cannot import `{policy}`: {exc}; `module:attr` names your own code, whose module must be importable "
-            f"(installed, on PYTHONPATH or in the working folder). Policy strings: {POLICY_FORMS}"
-        ) from exc
-    except AttributeError as exc:
-        raise PolicyError(f"cannot find `{policy}`: {exc}") from exc
-    return build_policy(obj, env, policy, seed)
-
-
-def baseline_names(env_id: str) -> list[str]:
-    """Return the names of the baselines registered for an environment (a vector-reward variant: its env's)."""
-    return sorted(registry().baselines.get(base_env(env_id), {}))
-
-
-def make_policy(env_id: str, policy: str | Callable[[Any], Any], env: gym.Env[Any, Any]) -> Callable[[Any], Any]:
-    """Turn a policy reference into a callable policy.
-
-    Args:
-        env_id: The environment's id (baselines are looked up under it; a vector-reward variant such as
-            ``gym4real/dam-mo-v0`` uses the baselines of the env it wraps).
-        policy: A baseline name (``longest_first``), a trained model as ``kind:path``
-            (``ppo:runs/dam/model.zip``, ``qlearning:runs/elevator/qtable.npz``, ``sb3:a2c:model.zip``), your
-            own ``module:attr`` (imported: see the module's docstring), or a callable.
-        env: The environment the policy will act in.
-
-    Raises:
-        PolicyError: An unknown name or kind, a model file that does not fit the environment, or a
-            ``module:attr`` that cannot be imported or gives no policy.
-    """
-    if callable(policy):
-        return policy
-    if isinstance(env.unwrapped, MultiObjective):  # same spaces; a baseline may read the env it acts in
-        env = env.unwrapped.env
-    if is_user_object(policy):
-        return user_policy(policy, env)
-    kind, sep, path = policy.partition(":")
-    if sep:
-        algo = None
-        if kind == SB3_KIND:
-            algo, _, path = path.partition(":")
-            if not path:
-                raise PolicyError(f"`{policy}` must be `sb3:ALGO:PATH` (`sb3:a2c:runs/model.zip`)")
-        elif kind not in MODEL_LOADERS:
-            raise PolicyError(f"unknown policy kind `{kind}` in `{policy}`; expected {POLICY_FORMS}")
-        if not Path(path).is_file():
-            raise PolicyError(f"policy file `{path}` (from `{policy}`) does not exist")
-        if algo is not None:
-            from gym4real.core.rl.sb3 import load_model
-
-            return load_model(env, path, algo.lower())
-        policy_from_file: Callable[[Any], Any] = load_object(MODEL_LOADERS[kind])(env, path)
-        return policy_from_file
-    baselines = registry().baselines.get(base_env(env_id), {})
-    if policy not in baselines:
-        raise PolicyError(
-            f"unknown policy `{policy}` for `{env_id}`; baselines: {sorted(baselines)}; or {POLICY_FORMS}"
-        )
-    built: Callable[[Any], Any] = load_object(baselines[policy].entry_point)(env)
-    return built

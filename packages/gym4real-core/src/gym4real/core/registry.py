@@ -444,6 +444,16 @@ def base_env(env_id: str) -> str:
     return registry().multi_objective.get(env_id, env_id)
 
 
+def slug(env_id: str) -> str:
+    """``gym4real/dam-v0`` -> ``dam-v0`` (the name of an id's files and folders)."""
+    return env_id.split("/", 1)[-1]
+
+
+def baseline_names(env_id: str) -> list[str]:
+    """Return the names of the baselines registered for an environment (a vector-reward variant: its env's)."""
+    return sorted(registry().baselines.get(base_env(env_id), {}))
+
+
 def domain_of(env_id: str) -> str:
     """Return the domain key of an id (``gym4real/robofeeder-picking-v0`` -> ``robofeeder``)."""
     return env_id.split("/", 1)[-1].split("-", 1)[0]

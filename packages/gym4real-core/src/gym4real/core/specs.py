@@ -136,10 +136,10 @@ class Claim:
 
     Each comparison of ``policy`` with one of ``others`` is decided by the two-level (seed, episode)
     percentile-bootstrap interval of the difference of a statistic of the per-episode ``quantity``
-    (:mod:`gym4real.core.stats`): the interquartile mean of the objective, the mean of the success
+    (:mod:`gym4real.bench.stats`): the interquartile mean of the objective, the mean of the success
     indicator (the success rate), or for ``less_variable`` the spread across test episodes (per training
     seed). The comparisons of a claim use Bonferroni-simultaneous intervals, so that its verdict holds at a
-    95 % family level. The rules are in :mod:`gym4real.core.rl.claims`.
+    95 % family level. The rules are in :mod:`gym4real.results.claims`.
 
     Args:
         text: The claim in the paper's words, with where it is made (and the reason of a margin).
@@ -222,7 +222,7 @@ class BenchmarkSpec:
         claims: The paper's claims about this comparison, checked by ``gym4real reproduce``.
         rule_based: The rule-based baselines among ``policies`` (hand-written rules: not ``random``, not an
             oracle reading the simulator, not a replay of recorded decisions, not a pretrained agent); the
-            best of them is 1 on the suite score's scale, ``random`` 0 (:mod:`gym4real.core.suite_score`).
+            best of them is 1 on the suite score's scale, ``random`` 0 (:mod:`gym4real.bench.suite_score`).
         placements: ``"module:function"``; ``function(env_kwargs)`` returns, per test episode of the protocol,
             where its object lies in the camera image (``(u, v)`` pixels, read by resetting the env with the
             episode's seed): the results page draws each success claim's rate over the workspace from them.

@@ -1,6 +1,6 @@
 """The dam's hindsight planner: the best release schedule of a year whose inflows and demand are known.
 
-A non-causal upper reference (:mod:`gym4real.core.upper_reference`), not a baseline: at the first step
+A non-causal upper reference (:mod:`gym4real.bench.upper_reference`), not a baseline: at the first step
 of an episode it reads the year's exogenous series from the environment (inflow, demand, minimum
 environmental flow, evaporation and deficit weight of every day, which no agent knows in advance), solves
 the year by backward dynamic programming over the lake level, and then plays the plan one day at a time.
@@ -38,8 +38,8 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from gym4real.bench.upper_reference import PlanCache, plan_cache, plan_key
 from gym4real.core.errors import ConfigError
-from gym4real.core.upper_reference import PlanCache, plan_cache, plan_key
 from gym4real.dam.env import DamEnv
 from gym4real.dam.lake import SECONDS_PER_DAY
 
@@ -65,7 +65,7 @@ class DamHindsight:
     Args:
         env: The dam environment (``gymnasium.make`` output or raw); its current episode is planned.
         step: Grid spacing of the lake level (m), positive.
-        cache: Reuse plans from the user cache (:func:`gym4real.core.upper_reference.plan_cache`).
+        cache: Reuse plans from the user cache (:func:`gym4real.bench.upper_reference.plan_cache`).
     """
 
     def __init__(self, env: gym.Env[Any, Any], step: float = STEP, cache: bool = True) -> None:

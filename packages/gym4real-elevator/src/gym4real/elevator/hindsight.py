@@ -1,6 +1,6 @@
 """The elevator's hindsight planner: the best actions of an episode whose arrivals are known, by exact DP.
 
-A non-causal upper reference (:mod:`gym4real.core.upper_reference`), not a baseline: at the first step
+A non-causal upper reference (:mod:`gym4real.bench.upper_reference`), not a baseline: at the first step
 of an episode it reads the episode's whole arrivals table from the environment (who appears at which
 floor in every second, which no agent knows in advance) and solves the episode by backward dynamic
 programming over the full state the dynamics depend on: the cabin's position, its load and the queue of
@@ -22,8 +22,8 @@ import gymnasium as gym
 import numpy as np
 from numba import njit
 
+from gym4real.bench.upper_reference import PlanCache, plan_cache, plan_key
 from gym4real.core.errors import ConfigError
-from gym4real.core.upper_reference import PlanCache, plan_cache, plan_key
 from gym4real.elevator.env import ElevatorEnv
 from gym4real.elevator.kernel import ElevatorKernel, step
 
@@ -105,7 +105,7 @@ class ElevatorHindsight:
 
     Args:
         env: The elevator environment (``gymnasium.make`` output or raw); its current episode is planned.
-        cache: Reuse plans from the user cache (:func:`gym4real.core.upper_reference.plan_cache`).
+        cache: Reuse plans from the user cache (:func:`gym4real.bench.upper_reference.plan_cache`).
     """
 
     def __init__(self, env: gym.Env[Any, Any], cache: bool = True) -> None:

@@ -1,7 +1,7 @@
 """ElevatorEnv's step as compiled code (numba), for tabular learning at compiled speed.
 
 :class:`ElevatorKernel` holds one reset episode of an :class:`~gym4real.elevator.env.ElevatorEnv` as arrays
-and offers the functions that :mod:`gym4real.core.rl.tabular` runs in its compiled loop: ``step`` (the
+and offers the functions that :mod:`gym4real.rl.tabular` runs in its compiled loop: ``step`` (the
 env's ``step``, both fidelity modes) and ``observe`` (the observation flattened in sorted-key order, as
 the tabular state index reads it). Tests step it against the env.
 """

@@ -21,15 +21,15 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from gym4real.core.benchmark import short_label
+from gym4real.bench.benchmark import short_label
 from gym4real.robofeeder._plugin import PICKING_V0, PLANNING_V0
 
 if TYPE_CHECKING:
-    from gym4real.core.benchmark import BenchmarkResult
+    from gym4real.bench.benchmark import BenchmarkResult
 
 
 def _policy(env_id: str, name: str, env: Any) -> Any:
-    from gym4real.core.policies import make_policy
+    from gym4real.bench.policies import make_policy
 
     return make_policy(env_id, name, env)
 
@@ -153,7 +153,7 @@ def planning_returns(
     import matplotlib
 
     import gym4real  # noqa: F401
-    from gym4real.core.benchmark import run_episode
+    from gym4real.bench.benchmark import run_episode
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -205,7 +205,7 @@ def planning_returns(
 
 def _named(result: BenchmarkResult) -> list[str]:
     """The result's policies that can be rebuilt by name (baselines and ``kind:path`` models)."""
-    from gym4real.core.policies import baseline_names
+    from gym4real.core.registry import baseline_names
 
     known = set(baseline_names(result.env_id))
     return [p for p in result.returns if p in known or ":" in p]

@@ -18,7 +18,7 @@ from gym4real.trading import features
 from gym4real.trading.config import TradingConfig
 
 if TYPE_CHECKING:
-    from gym4real.core.benchmark import BenchmarkResult
+    from gym4real.bench.benchmark import BenchmarkResult
 
 ENV_ID = "gym4real/trading-v0"
 

@@ -1,6 +1,6 @@
 """Trading's hindsight planner: the best positions of a day whose prices are known, by exact dynamic programming.
 
-A non-causal upper reference (:mod:`gym4real.core.upper_reference`), not a baseline: at the first step
+A non-causal upper reference (:mod:`gym4real.bench.upper_reference`), not a baseline: at the first step
 of a trading day it reads the day's prices at every decision (which no agent knows in advance) and the
 episode's fee from the environment, and finds the sequence of positions of highest daily P&L net of fees,
 the protocol's objective (``pnl + fees``).

@@ -1,0 +1,120 @@
+"""The paper's two benchmark figures, drawn headless with matplotlib.
+
+Both plot the protocol's objective (the score; the return where the protocol names none), the policies
+best first by its IQM (:meth:`~gym4real.bench.benchmark.BenchmarkResult.ranking`), and their titles say
+which episodes they show. Policies are drawn by their short labels; each line has its own line style and
+marker, the markers at staggered steps so that lines which coincide stay visible, and a policy whose mean
+curve hides an earlier one's says so in the legend (``p79 (overlaps p78)``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from gym4real.bench import stats
+
+if TYPE_CHECKING:
+    from gym4real.bench.benchmark import BenchmarkResult
+
+MARKERS = ("o", "s", "^", "D", "v", "P", "X", "<", ">", "*")
+LINESTYLES = ("-", "--", "-.", ":")
+
+
+def mean_curves(result: BenchmarkResult) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Policy (best first) -> mean cumulative objective per step with its 95 % band (low, high)."""
+    return {name: stats.mean_band([np.cumsum(r) for r in result.objective_steps(name)]) for name in result.ranking()}
+
+
+def objective_label(result: BenchmarkResult) -> str:
+    """The objective for an axis: ``objective (deficit + overflow + starving)`` or ``objective (= return)``."""
+    return "objective (= return)" if result.objective_is_return else f"objective ({result.objective_name})"
+
+
+def episodes_label(result: BenchmarkResult) -> str:
+    """The episodes a figure shows: ``13 test episodes`` or ``3 seeded episodes (not the test protocol)``."""
+    n = len(result.episodes)
+    return f"{n} test episodes" if result.test_protocol else f"{n} episodes, not the test protocol"
+
+
+def overlapping(curves: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]], tol: float = 1e-3) -> dict[str, str]:
+    """Policy -> the first earlier policy whose mean curve it hides (within ``tol`` of the figure's height)."""
+    means = {name: c[0] for name, c in curves.items()}
+    height = max((float(np.ptp(np.concatenate(list(means.values())))), 1e-12))
+    found: dict[str, str] = {}
+    names = list(means)
+    for i, name in enumerate(names):
+        for other in names[:i]:
+            same_length = len(means[name]) == len(means[other])
+            if other not in found and same_length and np.max(np.abs(means[name] - means[other])) <= tol * height:
+                found[name] = other
+                break
+    return found
+
+
+def legend_labels(
+    result: BenchmarkResult, curves: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]
+) -> dict[str, str]:
+    """Policy -> its legend entry: the short label, and ``(overlaps other)`` when its curve hides another's."""
+    labels, hidden = result.labels, overlapping(curves)
+    return {n: f"{labels[n]} (overlaps {labels[hidden[n]]})" if n in hidden else labels[n] for n in curves}
+
+
+def save_figures(result: BenchmarkResult, out: Path) -> list[Path]:
+    """Write ``cumulative_reward.png`` (mean cumulative objective with a 95 % band) and ``returns_boxplot.png``.
+
+    Both plot the objective, the score claims are checked on and policies ranked by (the return where the
+    protocol names no objective); the file names are kept for the pages that link them.
+
+    Args:
+        result: The benchmark's result.
+        out: The folder.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    paths = [out / "cumulative_reward.png", out / "returns_boxplot.png"]
+    what = objective_label(result)
+    shown = episodes_label(result)
+    curves = mean_curves(result)
+    legend = legend_labels(result, curves)
+    fig, ax = plt.subplots(figsize=(8.5, 4.2))
+    n = len(curves)
+    for i, (name, (mean, low, high)) in enumerate(curves.items()):
+        steps = np.arange(1, len(mean) + 1)
+        every = max(1, len(steps) // 8)
+        (line,) = ax.plot(
+            steps,
+            mean,
+            label=legend[name],
+            linestyle=LINESTYLES[i % len(LINESTYLES)],
+            marker=MARKERS[i % len(MARKERS)],
+            markersize=5,
+            markevery=(i * every // max(n, 1), every),
+        )
+        ax.fill_between(steps, low, high, color=line.get_color(), alpha=0.12, linewidth=0)
+        for edge in (low, high):  # the band's edges, so that overlapping bands stay apart
+            ax.plot(steps, edge, color=line.get_color(), linewidth=0.6, alpha=0.7)
+    ax.set(xlabel=result.step_unit, ylabel=f"cumulative {what}")
+    ax.set_title(f"{result.env_id}: mean cumulative objective, {shown} (95 % band)")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, frameon=False, title="best first (IQM)")
+    fig.tight_layout()
+    fig.savefig(paths[0], dpi=120)
+    plt.close(fig)
+
+    fig, ax = plt.subplots(figsize=(max(7.0, 1.3 * n), 4.2))
+    labels = result.labels
+    ranked = result.ranking()
+    ax.boxplot([result.objective_values(name) for name in ranked], tick_labels=[labels[name] for name in ranked])
+    ax.set(xlabel="policy (best first by IQM)", ylabel=f"episode {what}")
+    ax.set_title(f"{result.env_id}: episode objective per policy, {shown}")
+    if any(len(label) > 14 for label in labels.values()):
+        ax.tick_params(axis="x", labelrotation=20)
+    fig.tight_layout()
+    fig.savefig(paths[1], dpi=120)
+    plt.close(fig)
+    return paths

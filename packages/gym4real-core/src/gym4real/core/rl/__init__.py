@@ -1,1 +1,0 @@
-"""RL training for Gym4ReaL: tabular Q-learning/SARSA (numpy) and PPO/DQN (Stable-Baselines3, extra ``rl``)."""

@@ -1,0 +1,157 @@
+"""Whether a results section is current: the fingerprints of what its numbers depend on.
+
+A section's test scores depend on three things, each with a fingerprint that is the same on every machine
+and that changes only when the scores would change:
+
+- ``protocol``: the environment's test protocol (:func:`gym4real.bench.reference.fingerprint`: its
+  distribution and version, fidelity, ``make()`` arguments, test episodes and objective);
+- ``data``: the SHA-256 of each data file the environment reads (of the stand-in read in its place, where
+  a file was missing);
+- ``trainer``: :data:`TRAINER_VERSION` (the version of our training code's output, pinned by the golden
+  smoke runs of ``tests/golden/test_golden_trainer.py``), the SHA-256 of each algorithm's preset settings,
+  and the versions of Stable-Baselines3 and PyTorch when an algorithm trains with them.
+
+A section whose recorded fingerprints (``report.json``) equal those of the installed code is **current**,
+whatever commit trained it; otherwise it is **stale**, and :func:`changes` names what changed. Claims are
+always decided by the installed rules from ``episodes.csv``, so they need no fingerprint. A change of the
+protocol or data makes a section's test phase stale (and, for data, its training); a change of the trainer
+makes its training stale.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+from gym4real.core.errors import Gym4RealError
+
+#: The version of our training code's output (SB3 and tabular trainers, schedules, model selection). Raise
+#: it, and the golden hashes of ``tests/golden/test_golden_trainer.py``, when a change of the training code
+#: changes what a seeded run trains; a change that moves code without changing its output keeps it.
+TRAINER_VERSION = 1
+#: The algorithms trained with Stable-Baselines3 and PyTorch (their versions are part of the fingerprint).
+SB3_ALGOS = ("ppo", "dqn")
+#: The key of the fingerprints in a section's ``report.json``.
+KEY = "fingerprints"
+#: The parts of the fingerprints, in the order changes are named.
+PARTS = ("protocol", "data", "trainer")
+
+
+def _sha256_json(value: Any) -> str:
+    return hashlib.sha256(json.dumps(value, sort_keys=True, default=str).encode()).hexdigest()
+
+
+def protocol_fingerprint(env_id: str) -> dict[str, Any]:
+    """The installed test protocol of ``env_id`` (:func:`gym4real.bench.reference.fingerprint`)."""
+    import gymnasium as gym
+
+    from gym4real.bench.benchmark import protocol
+    from gym4real.bench.reference import fingerprint
+
+    env = gym.make(env_id, **protocol(env_id).env_kwargs)
+    try:
+        return fingerprint(env_id, env)
+    finally:
+        env.close()
+
+
+#: The data fingerprint of a file found nowhere here (nor a stand-in in its place): no copy to hash.
+NOT_FOUND = "not found here"
+
+
+def data_fingerprint(data_files: list[dict[str, Any]]) -> dict[str, str]:
+    """Data file name -> the SHA-256 of the copy read (``provenance.data_files`` rows; a stand-in's if read).
+
+    A file with no copy here is :data:`NOT_FOUND`, not its registered hash: nothing was read to hash.
+    """
+    found = {}
+    for row in data_files:
+        instead = row.get("read_instead")
+        if instead:
+            found[row["name"]] = instead["sha256"]
+        else:
+            found[row["name"]] = NOT_FOUND if row.get("found") == "no" else row["sha256"]
+    return dict(sorted(found.items()))
+
+
+def trainer_fingerprint(env_id: str, presets: dict[str, str]) -> dict[str, Any]:
+    """What a seeded training run of ``env_id``'s ``presets`` (algo -> preset) trains, as installed."""
+    from gym4real.rl.presets import load_preset
+
+    found: dict[str, Any] = {
+        "trainer_version": TRAINER_VERSION,
+        "presets": {
+            algo: {"preset": preset, "settings_sha256": _sha256_json(load_preset(env_id, algo, preset))}
+            for algo, preset in sorted(presets.items())
+        },
+    }
+    if any(algo in SB3_ALGOS for algo in presets):
+        for dist in ("stable-baselines3", "torch"):
+            try:
+                found[dist] = metadata.version(dist)
+            except metadata.PackageNotFoundError:
+                found[dist] = "not installed"
+    return found
+
+
+def fingerprints(env_id: str, budget: str) -> dict[str, Any]:
+    """The installed fingerprints of a section of ``env_id`` at ``budget``: protocol, data and trainer."""
+    from gym4real.results import provenance
+    from gym4real.bench.seeds import presets
+
+    return {
+        "protocol": protocol_fingerprint(env_id),
+        "data": data_fingerprint(provenance.data_files(env_id)),
+        "trainer": trainer_fingerprint(env_id, presets(env_id, budget)),
+    }
+
+
+def _differences(recorded: Any, installed: Any, where: str) -> list[str]:
+    """Each leaf that differs, as ``where.key: recorded -> installed`` (long values by their key only)."""
+    if isinstance(recorded, dict) and isinstance(installed, dict):
+        found = []
+        for key in sorted(set(recorded) | set(installed), key=str):
+            if key not in installed:
+                found.append(f"{where}.{key}: gone")
+            elif key not in recorded:
+                found.append(f"{where}.{key}: new")
+            else:
+                found += _differences(recorded[key], installed[key], f"{where}.{key}")
+        return found
+    if recorded == installed:
+        return []
+    if installed == NOT_FOUND:
+        return [f"{where}: {NOT_FOUND}"]
+    short = all(len(json.dumps(v, default=str)) <= 40 for v in (recorded, installed))
+    return [f"{where}: {recorded!r} -> {installed!r}" if short else f"{where} changed"]
+
+
+def changes(recorded: dict[str, Any] | None, installed: dict[str, Any]) -> list[str]:
+    """What differs between a section's recorded fingerprints and the installed ones; empty when current."""
+    if not recorded:
+        return ["no fingerprints recorded"]
+    found = []
+    for part in PARTS:
+        if part not in recorded:
+            found.append(f"{part}: not recorded")
+        else:
+            found += _differences(recorded[part], installed[part], part)
+    return found
+
+
+def section_changes(folder: Path) -> list[str]:
+    """What makes the results section in ``folder`` stale (empty when it is current)."""
+    if (folder / "error.txt").exists():
+        return ["not run (error.txt)"]
+    report_path = folder / "report.json"
+    if not report_path.exists():
+        return ["no report.json"]
+    report = json.loads(report_path.read_text())
+    try:
+        installed = fingerprints(report["env_id"], report["budget"])
+    except Gym4RealError as exc:
+        return [f"cannot be fingerprinted here: {' '.join(str(exc).split())}"]
+    return changes(report.get(KEY), installed)

@@ -1,0 +1,125 @@
+"""The trained models of a results section, published beside its test episodes.
+
+Each training run's model (SB3: ``model.zip`` and, when the preset normalises observations, the statistics
+``normalize.npz`` it was tested with; tabular: ``qtable.npz``) is copied into
+``<env>-<budget>/models/<algo>-seed<S>/`` when its files total at most :data:`MAX_BYTES`, so that
+``gym4real evaluate`` on it reruns that seed's test episodes. ``models.json`` lists every model, published or
+not, with the SHA-256 and size of each file, the ``gym4real evaluate`` command that tests a published one and
+the ``gym4real train`` command that trains it again (the only way to get a larger one, such as robofeeder's
+CNNs).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import shutil
+from pathlib import Path
+from typing import Any
+
+from gym4real.core.registry import slug
+from gym4real.rl.train import TrainingRun
+
+#: The largest model (all its files) published beside the results.
+MAX_BYTES = 5 * 1024 * 1024
+#: The folder of the published models inside a results section.
+FOLDER = "models"
+#: The listing of a section's models.
+LISTING = "models.json"
+#: Files beside a model that a policy loads with it.
+COMPANIONS = ("normalize.npz",)
+
+
+def sha256_of(path: Path) -> str:
+    """The SHA-256 of a file, read in blocks."""
+    digest = hashlib.sha256()
+    with path.open("rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def model_files(run: TrainingRun) -> list[Path]:
+    """The files that make up a run's model: the model and its companions found beside it."""
+    return [run.model_path] + [p for name in COMPANIONS if (p := run.model_path.with_name(name)).exists()]
+
+
+def publish_models(runs: list[TrainingRun], section: Path, budget: str) -> list[dict[str, Any]]:
+    """Copy each run's model into ``section/models/`` (up to :data:`MAX_BYTES`) and write ``models.json``.
+
+    Args:
+        runs: The section's training runs.
+        section: The results folder ``<env>-<budget>``; its previous ``models/`` is replaced.
+        budget: The section's budget (for the commands).
+
+    Returns:
+        The listing written to ``models.json``: per run, its files (name, SHA-256, bytes), whether it is
+        published and where, and the commands that evaluate and retrain it.
+    """
+    target = section / FOLDER
+    shutil.rmtree(target, ignore_errors=True)
+    listing = []
+    for run in sorted(runs, key=lambda r: (r.algo, r.seed)):
+        files = model_files(run)
+        size = sum(p.stat().st_size for p in files)
+        name = f"{run.algo}-seed{run.seed}"
+        published = size <= MAX_BYTES
+        record = json.loads((run.model_path.parent / "run.json").read_text())
+        entry: dict[str, Any] = {
+            "algo": run.algo,
+            "seed": run.seed,
+            "preset": run.preset,
+            "trained_by": record.get("versions", {}).get("gym4real (git)", "not recorded"),
+            "files": [{"name": p.name, "sha256": sha256_of(p), "bytes": p.stat().st_size} for p in files],
+            "bytes": size,
+            "published": published,
+            "retrain": (
+                f"gym4real train {run.env_id} --algo {run.algo} --preset {run.preset} --seed {run.seed} "
+                f"--out runs/{slug(run.env_id)}/{budget}/{run.algo}/seed{run.seed}"
+            ),
+        }
+        if published:
+            (target / name).mkdir(parents=True, exist_ok=True)
+            for p in files:
+                shutil.copy(p, target / name / p.name)
+            path = f"{section.name}/{FOLDER}/{name}/{run.model_path.name}"
+            entry["path"] = f"{FOLDER}/{name}/{run.model_path.name}"
+            entry["evaluate"] = (
+                f"gym4real evaluate published-{run.algo}={run.algo}:{path} --envs {run.env_id} --seeds {run.seed} "
+                "(in the page folder)"
+            )
+        else:
+            entry["why_not_published"] = f"{size / 2**20:.1f} MiB, over the {MAX_BYTES // 2**20} MiB limit"
+        listing.append(entry)
+    (section / LISTING).write_text(json.dumps(listing, indent=1) + "\n")
+    return listing
+
+
+def list_unkept_models(section: Path, why: str) -> list[dict[str, Any]]:
+    """Write ``models.json`` for a section whose models were not kept (trained before models were published).
+
+    Each run of its ``runs.csv`` is listed unpublished, with ``why`` and the ``gym4real train`` command that
+    trains it again; no hash is recorded, since no copy of the model is left to hash.
+    """
+    import pandas as pd
+
+    report = json.loads((section / "report.json").read_text())
+    runs = pd.read_csv(section / "runs.csv")
+    listing = [
+        {
+            "algo": row["algo"],
+            "seed": int(row["seed"]),
+            "preset": row["preset"],
+            "files": "not recorded",
+            "published": False,
+            "why_not_published": why,
+            "retrain": (
+                f"gym4real train {report['env_id']} --algo {row['algo']} --preset {row['preset']} "
+                f"--seed {int(row['seed'])} --out runs/{slug(report['env_id'])}/{report['budget']}/{row['algo']}/"
+                f"seed{int(row['seed'])}"
+            ),
+        }
+        for row in runs.sort_values(["algo", "seed"]).to_dict("records")
+    ]
+    (section / LISTING).write_text(json.dumps(listing, indent=1) + "\n")
+    return listing

@@ -1,0 +1,623 @@
+"""The results page of ``gym4real reproduce``: Markdown tables, figures and claim verdicts.
+
+:func:`write_page` reads every ``<env>-<budget>/`` folder of a reproduce output folder (its raw data
+``episodes.csv`` and ``runs.csv``, ``report.json``, the statistics computed from ``episodes.csv`` --
+``summary.csv``, ``improvement.csv``, ``claims.json`` -- its figures, or ``error.txt``) and writes beside
+them ``results.md``, ``claims.json``, ``claims.md`` (the short table of verdicts) and ``manifest.json``
+(the code version, package versions and data files). Given a page folder (a docs folder) it writes
+``index.md`` there with the same files, each env folder copied without its training runs, so that the page
+folder alone regenerates the page (``write_page(page)``).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import re
+import shutil
+from collections import Counter
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from gym4real.bench import stats
+from gym4real.bench.numbers import human
+from gym4real.results import analysis, summary_figure, workspace
+from gym4real.results.claims import QUANTITIES, RULES, VERDICTS
+from gym4real.results.fingerprints import section_changes
+from gym4real.results.headroom_page import headroom_table
+from gym4real.results.page_manifest import files_sha256, imported_by_all, section_record
+from gym4real.results.published_models import FOLDER as MODELS
+from gym4real.results.section_provenance import currency_line, models_lines, run_provenance
+from gym4real.results.stand_ins import budget_mark, difference_lines
+
+#: The name of a results folder: ``<env>-<budget>``.
+FOLDER = re.compile(r"^(?P<env>[a-z0-9-]+)-(?P<budget>paper|quick)$")
+#: The files of a results folder that the page folder holds.
+PUBLISHED = (
+    "episodes.csv",
+    "runs.csv",
+    "summary.csv",
+    "improvement.csv",
+    "claims.json",
+    "report.json",
+    "learning_curves.csv",
+    "error.txt",
+    workspace.PLACEMENTS,
+    "models.json",
+)
+_FIGURES = (
+    ("cumulative_reward.png", "mean cumulative objective on the test episodes (95 % band)"),
+    ("returns_boxplot.png", "per-episode objective (all seeds' episodes)"),
+    ("performance_profile.png", "performance profile: fraction of runs x episodes above each score"),
+    ("learning_curves.png", "learning curves: validation return during training (each seed, mean, 95 % band)"),
+    (
+        workspace.HEATMAP,
+        "success rate over the workspace, per policy of the success claim: each test episode placed where its "
+        "object lay (`placements.csv`, read by resetting the env with the test protocol's seeds), its success "
+        "from `episodes.csv`",
+    ),
+)
+QUICK = "pipeline check, not a verdict"
+
+
+def _fmt(v: Any, scale: float = 0.0) -> str:
+    """A number written for people (:func:`~gym4real.bench.numbers.human`); float noise (``stats.RTOL``) as 0."""
+    if isinstance(v, float):
+        return human(stats.snap(v, scale))
+    return str(v)
+
+
+def _ci(low: float, high: float, scale: float = 0.0) -> str:
+    return f"[{_fmt(float(low), scale)}, {_fmt(float(high), scale)}]"
+
+
+def _duration(seconds: float) -> str:
+    if seconds >= 3600:
+        return f"{seconds / 3600:.1f} h"
+    if seconds >= 60:
+        return f"{seconds / 60:.1f} min"
+    return f"{seconds:.0f} s"
+
+
+def no_paths(text: str) -> str:
+    """``text`` without machine paths: an absolute path is shown by its last component."""
+    return re.sub(r"(?<![\w.:/])(?:~/(?:[\w.@+-]+/)*|/(?:[\w.@+-]+/)+)(?=[\w.@+-])", "", text)
+
+
+def _has_results(folder: Path) -> bool:
+    return (folder / "episodes.csv").exists() and not (folder / "error.txt").exists()
+
+
+def _folders(out: Path) -> list[Path]:
+    """Per environment: its paper-budget folder, or else why it is missing and its quick-budget folder."""
+    envs = sorted({m["env"] for p in out.iterdir() if p.is_dir() and (m := FOLDER.match(p.name))})
+    found = []
+    for env in envs:
+        paper, quick = out / f"{env}-paper", out / f"{env}-quick"
+        if _has_results(paper):
+            found.append(paper)
+            continue
+        found += [f for f in (paper, quick) if _has_results(f) or (f / "error.txt").exists()]
+    return found
+
+
+def _what_it_runs(env_id: str, budget: str) -> str:
+    """What ``gym4real reproduce ENV --budget B`` trains, tests and checks, in one sentence."""
+    from gym4real.bench.benchmark import protocol
+    from gym4real.bench.seeds import presets, seeds
+    from gym4real.rl.presets import load_preset
+
+    try:
+        trained = []
+        for algo, preset in presets(env_id, budget).items():
+            hp = load_preset(env_id, algo, preset)
+            size = f"{hp['episodes']:,} episodes" if "episodes" in hp else f"{hp['total_timesteps']:,} steps"
+            trained.append(f"`{algo}` (preset `{preset}`: {size} on {hp.get('n_envs', 1)} env(s))")
+        spec = protocol(env_id)
+        run_seeds = ", ".join(str(s) for s in seeds(env_id, budget))
+    except Exception as exc:  # the page must be written even when the registry has changed
+        return f"(`gym4real reproduce {env_id} --budget {budget}` could not be planned: {no_paths(str(exc))})"
+    claims = "; ".join(f'"{c.text}"' for c in spec.claims) or "none"
+    return (
+        f"With it in place, `gym4real reproduce {env_id} --budget {budget}` trains {', '.join(trained)} with "
+        f"seed(s) {run_seeds}, tests each model beside {', '.join(spec.policies)} on the test protocol "
+        f"({spec.description}), checks the claims ({claims}) and adds this section to the page."
+    )
+
+
+def _data_read(report: dict[str, Any]) -> list[str]:
+    """The line on the data files a section's runs read, each stand-in named as one (and a blank line).
+
+    A registered file that is a stand-in (``DatasetSpec.stand_in_for``) is named; so is a file that was not
+    found at run time, with the stand-in its domain reads in its place (``gym4real.<domain>.standin``,
+    written by ``gym4real data synthesize <domain>``) where there is one.
+    """
+    from gym4real.core.datasets import stand_in_replacing
+    from gym4real.core.registry import registry
+
+    datasets, rows = registry().datasets, report.get("data_files", [])
+    if not rows:
+        return []
+    stand_ins = [
+        f"`{row['name']}` stands in for {spec.stand_in_for}"
+        for row in rows
+        if (spec := datasets.get(row["name"])) is not None and spec.stand_in_for
+    ]
+    for row in rows:
+        if row.get("found") == "no":
+            module = stand_in_replacing(row["name"])
+            if module is not None:
+                domain = row["name"].split("/", 1)[0]
+                stand_ins.append(
+                    f"`{row['name']}` was not found at run time: a preset that trains on it read the synthetic "
+                    f"stand-in `{module.PATH}` instead (`gym4real data synthesize {domain}`; {_stand_in_hash(row)})"
+                )
+            else:
+                stand_ins.append(f"`{row['name']}` was not found at run time")
+    line = f"Data: {len(rows)} files, each with its SHA-256 in `manifest.json`."
+    return [line + (f" **Stand-ins and missing files:** {'; '.join(stand_ins)}." if stand_ins else ""), ""]
+
+
+def _stand_in_hash(row: dict[str, Any]) -> str:
+    """Where the SHA-256 of the stand-in a run read in place of ``row``'s file is recorded."""
+    read = row.get("read_instead")
+    if read is None:  # recorded before reproduce named the stand-in it read
+        return "its provenance and SHA-256 in the `.json` beside it, not recorded with this run"
+    when = f", recorded {read['recorded']}" if read.get("recorded") else ""
+    return f"SHA-256 `{read['sha256'][:12]}…` in `manifest.json`{when}"
+
+
+class Section:
+    """The files of one finished results folder."""
+
+    def __init__(self, folder: Path) -> None:
+        self.folder = folder
+        self.name = folder.name
+        self.budget = FOLDER.match(folder.name)["budget"]  # type: ignore[index]
+        self.report: dict[str, Any] = json.loads((folder / "report.json").read_text())
+        self.episodes = pd.read_csv(folder / "episodes.csv")
+        self.summary = pd.read_csv(folder / "summary.csv")
+        self.improvement = pd.read_csv(folder / "improvement.csv")
+        self.claims: list[dict[str, Any]] = json.loads((folder / "claims.json").read_text())
+        self.runs = pd.read_csv(folder / "runs.csv") if (folder / "runs.csv").exists() else None
+        self.scale = float(self.episodes["objective"].abs().max())
+        self.stale = section_changes(folder)
+
+    @property
+    def version(self) -> str:
+        """The code version that produced the folder."""
+        return str(self.report["code_version"])
+
+
+def _verdict(verdict: str, budget: str, bold: bool = True) -> str:
+    if budget == "quick":
+        return f"{verdict} ({QUICK})"
+    return f"**{verdict}**" if bold else verdict
+
+
+_STATISTIC = {"iqm": "IQM", "mean": "success rate", "spread": "spread"}
+
+
+def _comparison(c: dict[str, Any], comp: dict[str, Any], scale: float) -> str:
+    stat = _STATISTIC.get(comp["statistic"], comp["statistic"])
+    scale = 1.0 if comp["statistic"] == "mean" and c.get("quantity") == "success" else scale
+    text = f"{stat} {comp['a']} - {comp['b']}: {_fmt(comp['estimate'], scale)} {_ci(comp['low'], comp['high'], scale)}"
+    if "objective" in comp:  # the objective, shown beside a claim on another quantity
+        o = comp["objective"]
+        text += f" (objective IQM beside: {_fmt(o['estimate'])} {_ci(o['low'], o['high'])})"
+    if "seeds" in comp:
+        counts = Counter(s["verdict"] for s in comp["seeds"])
+        text += "; seeds' own intervals: " + ", ".join(f"{counts[v]} {v}" for v in VERDICTS if counts[v])
+        text += "".join(
+            f"; seed {s['seed']}: {_fmt(s['estimate'], scale)} {_ci(s['low'], s['high'], scale)}"
+            for s in comp["seeds"]
+            if s["verdict"] == "refuted"
+        )
+    if c.get("margin") is not None:
+        text += f" (margin {_fmt(float(c['margin']))}, detectable ±{_fmt(comp['detectable'], scale)})"
+    return text
+
+
+def _rule(c: dict[str, Any]) -> str:
+    """The rule column of a claim: its rule; a negative claim's also says its positive's and the margin reading."""
+    if "positive_verdict" not in c:
+        return str(c["rule"])
+    margin = c["margin_reading"]
+    positive = next((x for x in c["comparisons"] if x["b"] == c.get("deciding")), None)
+    why = f" ({positive['rule']})" if positive and c["positive_verdict"] != "holds" else ""
+    return (
+        f"negation: its positive claim is {c['positive_verdict']}{why}; margin reading (second, stricter): "
+        f"{margin['verdict']} ({margin['rule']}, against {margin['deciding']})"
+    )
+
+
+def _shows(section: Section, claim: dict[str, Any]) -> str:
+    """What the run shows about a check of this suite's own, in plain numbers (objective IQMs, success per seed)."""
+    rows = section.summary.sort_values("iqm", ascending=False)
+    ranked = ", ".join(f"`{r['policy']}` {_fmt(float(r['iqm']), section.scale)}" for r in rows.to_dict("records"))
+    text = f"What the run shows: the IQMs of the objective rank {ranked}."
+    if "success" in section.episodes.columns:
+        mine = section.episodes[section.episodes["policy"] == claim["policy"]]
+        rates = (mine["success"] > 0).groupby(mine["seed"]).mean()
+        if len(rates):
+            text += (
+                f" `{claim['policy']}`'s success rate per seed: {rates.min():.0%} to {rates.max():.0%}"
+                f" ({', '.join(f'{r:.0%}' for r in rates)})."
+            )
+    return text
+
+
+def _section(folder: Path, section: Section | None, version: str) -> list[str]:
+    """The page's section of one env folder; ``section`` is None when it has no results."""
+    m = FOLDER.match(folder.name)
+    env, budget = m["env"], m["budget"]  # type: ignore[index]
+    if section is None:
+        error = (folder / "error.txt").read_text().strip() if (folder / "error.txt").exists() else "no results"
+        return [
+            f"## `gym4real/{env}`, budget `{budget}`: not run",
+            "",
+            f"Not run here: {no_paths(error)}",
+            "",
+            _what_it_runs(f"gym4real/{env}", budget),
+            "",
+        ]
+    report, scale, name = section.report, section.scale, section.name
+    title = f"## `{report['env_id']}`, budget `{budget}`" + (f": {QUICK}" if budget == "quick" else "")
+    lines = [title, ""]
+    lines += [currency_line(section.stale, report.get("fingerprints_verified")), ""]
+    runs = section.runs
+    train_s = float(runs["wall_s"].sum()) if runs is not None and len(runs) else 0.0
+    lines += [
+        f"Test protocol: {report['protocol']}. Objective (the score): {' + '.join(report['objective'])} per episode.",
+        "",
+        *_data_read(report),
+        *difference_lines(report, section.episodes),
+        f"Command (reuses the finished runs of its output folder): `{report['command']}`",
+        "",
+        f"Trained at code version `{section.version}`; training presets "
+        f"{', '.join(f'`{a}/{p}`' for a, p in report['presets'].items())}; seeds "
+        f"{', '.join(str(s) for s in report['seeds'])}; training wall time {_duration(train_s)} (sum over runs), "
+        f"test {_duration(report['test_wall_time_s'])}. Raw data: "
+        + ", ".join(f"[{f}]({name}/{f})" for f in ("episodes.csv", "runs.csv", "summary.csv", "improvement.csv"))
+        + ".",
+        "",
+        *models_lines(folder, name),
+        "| policy | seeds | episodes | IQM | 95 % interval | mean | spread | mean return | train time | env-steps/s |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    notes = []
+    for row in section.summary.to_dict("records"):
+        agent = row["kind"] == "agent"
+        mine = runs[runs["algo"] == row["policy"]] if runs is not None and agent else None
+        cost = (
+            f"{_duration(float(mine['wall_s'].sum()))} | "
+            f"{_fmt(float((mine['env_steps'] + mine['eval_steps']).sum() / mine['wall_s'].sum()))}"
+            if mine is not None and len(mine)
+            else "- | -"
+        )
+        lines.append(
+            f"| {row['policy']} | {row['seeds'] if agent else '-'} | {row['episodes']} | {_fmt(row['iqm'], scale)} "
+            f"| {_ci(row['low'], row['high'], scale)} | {_fmt(row['mean'], scale)} | {_fmt(row['spread'], scale)} "
+            f"| {_fmt(row['mean_return'])} | {cost} |"
+        )
+        if isinstance(row.get("identical_to"), str) and row["identical_to"]:
+            notes.append(
+                f"`{row['policy']}` is identical to `{row['identical_to']}` in every test episode: the two "
+                "policies take the same score in each (to 1e-6 of the scores' magnitude), so every statistic of "
+                "theirs is equal."
+            )
+    lines += ["", *(f"Note: {n}" for n in notes), *([""] if notes else [])]
+    seeds = analysis.per_seed(section.episodes, runs)
+    if len(seeds):
+        lines += ["Per training seed (a failed seed shows here; the pooled IQM can hide it):", ""]
+        lines += [
+            "| policy | seed | IQM | mean | validation-selected checkpoint | trained by | resumed |",
+            "|---|---|---|---|---|---|---|",
+        ]
+        for row in seeds.to_dict("records"):
+            kept = row.get("selected_at")
+            at = f"{int(kept):,} {row['selected_unit']}" if kept == kept and kept is not None else "-"
+            trained_by, resumed = run_provenance(runs, row["policy"], row["seed"])
+            lines.append(
+                f"| {row['policy']} | {row['seed']} | {_fmt(row['iqm'], scale)} | {_fmt(row['mean'], scale)} | {at} "
+                f"| {trained_by} | {resumed} |"
+            )
+        lines.append("")
+    if len(section.improvement):
+        lines += [
+            "Probability of improvement (a run of the agent scores more than the baseline on the same test episode):",
+            "",
+            "| agent | baseline | P(agent > baseline) [95 % interval] |",
+            "|---|---|---|",
+        ]
+        for row in section.improvement.to_dict("records"):
+            lines.append(
+                f"| {row['agent']} | {row['baseline']} | {row['p']:.3f} [{row['low']:.3f}, {row['high']:.3f}] |"
+            )
+        lines.append("")
+    for own in (False, True):
+        claims = [c for c in section.claims if c.get("paper", True) is not own]
+        if not claims:
+            continue
+        title = "This suite's own checks (not claims of the paper):" if own else "Claims of the paper:"
+        lines += [
+            title,
+            "",
+            "| claim | comparison: difference [interval] | level | verdict | rule |",
+            "|---|---|---|---|---|",
+        ]
+        for c in claims:
+            if not c["comparisons"]:
+                lines.append(f"| {c['text']} | - | - | {_verdict(c['verdict'], budget)} | {c['rule']} |")
+                continue
+            for i, comp in enumerate(c["comparisons"]):
+                lines.append(
+                    f"| {c['text'] if i == 0 else ''} | {_comparison(c, comp, scale)} | {comp['level']:.4g} "
+                    f"| {_verdict(comp['verdict'], budget, bold=False)} | {comp['rule']} |"
+                )
+            lines.append(f"| | **claim** | {c['family_level']:.2g} | {_verdict(c['verdict'], budget)} | {_rule(c)} |")
+        lines.append("")
+        lines += [_shows(section, c) for c in claims if own] + ([""] if own else [])
+    for file, caption in _FIGURES:
+        if (folder / file).exists():
+            lines += [f"![{report['env_id']}: {caption}]({name}/{file})", ""]
+    return lines
+
+
+def claims_table(
+    claims: list[dict[str, Any]],
+    scales: dict[str, float] | None = None,
+    own: bool = False,
+    marks: dict[str, str] | None = None,
+) -> str:
+    """A short Markdown table: per claim of the paper (``own``: per own check), verdict, rule, deciding comparison.
+
+    ``marks``: section name -> its budget column's entry (:func:`~gym4real.results.stand_ins.budget_mark`).
+    """
+    claims = [c for c in claims if c.get("paper", True) is not own]
+    if not claims:
+        return ""
+    column = "check of this suite's own" if own else "paper's claim"
+    lines = [
+        f"| env | budget | {column} | verdict | rule | deciding comparison: difference [interval] |",
+        "|---|---|---|---|---|---|",
+    ]
+    for c in claims:
+        env = c["env_id"].split("/", 1)[-1]
+        scale = (scales or {}).get(f"{env}-{c['budget']}", 0.0)
+        comp = next((x for x in c["comparisons"] if x["b"] == c.get("deciding")), None)
+        where = _comparison(c, comp, scale) if comp else "-"
+        budget = (marks or {}).get(f"{env}-{c['budget']}", c["budget"])
+        lines.append(
+            f"| `{env}` | {budget} | {c['text']} | {_verdict(c['verdict'], c['budget'])} | {_rule(c)} | {where} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def _verdicts(claims: list[dict[str, Any]], scales: dict[str, float], marks: dict[str, str]) -> list[str]:
+    """The verdict tables (the paper's claims, then this suite's own checks) and the three verdicts' definitions."""
+    paper = sum(c.get("paper", True) for c in claims)
+    own = claims_table(claims, scales, own=True, marks=marks)
+    return [
+        f"## Verdicts on the paper's claims ({paper})",
+        "",
+        claims_table(claims, scales, marks=marks),
+        *(
+            [
+                "Checks of this suite's own, outside the paper's claims: the paper does not make them.",
+                "",
+                own,
+            ]
+            if own
+            else []
+        ),
+        "The verdicts (each with the rule that decided it; the rules, statistics and levels are under "
+        "[Methods](#methods)):",
+        "",
+        *(f"- **{word}**: {words}." for word, words in VERDICTS.items()),
+        "",
+    ]
+
+
+def _summary_figure(sections: list[Section], out: Path) -> list[str]:
+    """The page's opening figure (every agent and baseline per env, :mod:`summary_figure`) and its link."""
+    panels = [
+        (s.report["env_id"], " + ".join(s.report["objective"]), s.summary) for s in sections if s.budget == "paper"
+    ]
+    if summary_figure.write(panels, out) is None:
+        return []
+    return [
+        f"![Every agent and baseline per env: IQM of the objective and its 95 % interval]({summary_figure.FILE})",
+        "",
+    ]
+
+
+def _method() -> list[str]:
+    return [
+        "## Methods",
+        "",
+        "Generated by `gym4real reproduce` from the files beside this page alone: every RL algorithm of the "
+        "paper trained per seed with the budget's training presets, then tested on the environment's test "
+        "protocol beside the baselines. `<env>-<budget>/episodes.csv` holds every test score (one row per "
+        "policy, seed and episode); every number below about test scores is computed from it "
+        "(`gym4real.results.analysis`), `runs.csv` holds each training run and its settings, and "
+        "`manifest.json` the code version, package versions and the SHA-256 of the data files.",
+        "",
+        "**Statistics.** A policy's score in a test episode is the per-episode objective. The IQM "
+        "(interquartile mean over all seeds and test episodes) has a 95 % two-level (seed, episode) "
+        "percentile-bootstrap interval: each replicate draws the test episodes with replacement, the same ones "
+        "for every policy, and an RL algorithm's training seeds with replacement, so that the interval covers "
+        "the variability of training as well as of the test episodes; a baseline's episodes are resampled only. "
+        "*Spread* is the standard deviation across test episodes, per seed, averaged over seeds. The probability "
+        "of improvement is rliable's P(agent > baseline): the chance that a run of the agent scores more than "
+        "the baseline on the same test episode (ties count one half). Numbers below 1e-9 of the scores' "
+        "magnitude are float noise and shown as 0. Wall times and env-steps/s were measured on a shared machine "
+        "and vary with its load.",
+        "",
+        f"**Budgets.** An environment is shown at the `paper` budget when it was run there, else at the `quick` "
+        f"budget (the smoke presets: seconds of training), whose verdicts are a *{QUICK}*.",
+        "",
+        "**Quantities of the claims.** A claim compares one per-episode quantity:",
+        "",
+        *(f"- *{name}*: {words}." for name, words in QUANTITIES.items()),
+        "",
+        "**Rules of the verdicts.** Each claim comparison is the difference of a statistic (policy - other) "
+        "with its interval; a *consistently* claim also takes each training seed's own interval (that seed's "
+        "test episodes resampled, paired with the other policy), and a seed counts as better or worse only when "
+        "its interval says so. No verdict rests on a point estimate. The rule that decided each verdict is named "
+        "beside it:",
+        "",
+        *(f"- *{name}*: {words}." for name, words in RULES.items()),
+        "",
+    ]
+
+
+def suite_scores(sections: list[Section]) -> list[str]:
+    """The page's suite-score section: each paper agent's suite score over the paper-budget envs of the page.
+
+    Computed from the sections' ``episodes.csv`` alone, on the scale of :mod:`gym4real.bench.suite_score`
+    (0 = ``random``, 1 = the env's best rule-based baseline), the same numbers ``gym4real evaluate`` prints
+    beside a user's agent.
+    """
+    from gym4real.bench import suite_score
+    from gym4real.bench.benchmark import protocol
+    from gym4real.bench.episodes import score_matrices
+
+    runs: dict[str, dict[str, tuple[np.ndarray, suite_score.Scale]]] = {}
+    scales: list[str] = []
+    for section in sections:
+        if section.budget != "paper":
+            continue
+        env_id = section.report["env_id"]
+        scores, seeds = score_matrices(section.episodes, section.name)
+        anchors = {p: m for p, m in scores.items() if not seeds[p]}
+        env_scale = suite_score.scale(env_id, anchors, protocol(env_id).rule_based)
+        if not env_scale.usable:
+            scales.append(f"`{env_id}`: no scale ({env_scale.note})")
+            continue
+        scales.append(f"`{env_id}`: 0 = random, 1 = `{env_scale.best}`")
+        for policy, matrix in scores.items():
+            if seeds[policy]:
+                runs.setdefault(policy, {})[env_id] = (matrix, env_scale)
+    if not runs:
+        return []
+    lines = [
+        "## Suite score of the paper agents",
+        "",
+        "Each run (a training seed on an env) scores the IQM of its test episodes on the env's scale: 0 is the "
+        "`random` baseline, 1 the env's best rule-based baseline. An agent's suite score is the IQM of its runs "
+        "over the envs it was trained on, with a stratified bootstrap (seeds and test episodes resampled within each "
+        "env) and its "
+        "optimality gap (mean shortfall below 1). `gym4real evaluate` puts your agent on the same scale. "
+        + "Scales: "
+        + "; ".join(scales)
+        + ".",
+        "",
+        "| agent | envs | runs | suite score (IQM) [95 % CI] | optimality gap [95 % CI] |",
+        "|---|---|---|---|---|",
+    ]
+    for policy, per_env in sorted(runs.items()):
+        score = suite_score.summary(per_env)
+        envs = ", ".join(f"`{e.split('/', 1)[-1]}`" for e in per_env)
+        lines.append(
+            f"| {policy} | {envs} | {score['runs']} | {score['iqm']:.4g} {_ci(score['low'], score['high'])} | "
+            f"{score['optimality_gap']:.4g} {_ci(score['optimality_gap_low'], score['optimality_gap_high'])} |"
+        )
+    return [*lines, ""]
+
+
+def manifest(sections: list[Section], version: str) -> dict[str, Any]:
+    """``manifest.json``: the page's code version, each section's, package versions, platform, data files.
+
+    ``rendered_by`` is the code that wrote the page; ``provenance`` holds per section its command,
+    fingerprints, the distributions it imported, its models and the SHA-256 of every file it publishes
+    (:mod:`~gym4real.results.page_manifest`); ``imported`` is their union.
+    """
+    from gym4real.bench.versions import code_version
+
+    main = next((s for s in sections if s.version == version), None)
+    records = {s.name: section_record(s.folder, s.report, published_files(s.folder), s.stale) for s in sections}
+    return {
+        "code_version": version,
+        "rendered_by": code_version(),
+        "sections": {s.name: s.version for s in sections},
+        "imported": imported_by_all(records),
+        "provenance": records,
+        "versions": main.report["versions"] if main else {},
+        "platform": main.report["platform"] if main else "",
+        "data_files": {s.name: s.report["data_files"] for s in sections},
+    }
+
+
+def published_files(folder: Path) -> list[Path]:
+    """The files of a results folder that the page folder holds: data, statistics, figures and models."""
+    files = [folder / f for f in PUBLISHED] + [folder / f for f, _ in _FIGURES]
+    models = sorted(p for p in (folder / MODELS).rglob("*") if p.is_file()) if (folder / MODELS).is_dir() else []
+    return [f for f in files if f.exists()] + models
+
+
+def _publish(folder: Path, page: Path) -> None:
+    """Copy a results folder's published files, figures and models into ``page/<env>-<budget>/``."""
+    target = page / folder.name
+    if target.resolve() == folder.resolve():
+        return
+    shutil.rmtree(target, ignore_errors=True)
+    for file in published_files(folder):
+        copy = target / file.relative_to(folder)
+        copy.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(file, copy)
+
+
+def write_page(out: Path, page: str | Path | None = None) -> Path:
+    """Write ``out/results.md`` (and ``page/index.md`` with its files) from the results folders in ``out``."""
+    out = Path(out)
+    folders = _folders(out)
+    sections = {folder: Section(folder) for folder in folders if _has_results(folder)}
+    counts = Counter(s.version for s in sections.values())
+    version = counts.most_common(1)[0][0] if counts else "none"
+    claims = [c for s in sections.values() for c in s.claims]
+    scales = {s.name: s.scale for s in sections.values()}
+    marks = {s.name: budget_mark(s.report, s.budget) for s in sections.values()}
+    record = manifest(list(sections.values()), version)
+    others = [s.name for s in sections.values() if s.stale]
+    head = [
+        "# Reproduced results",
+        "",
+        f"Rendered by code version `{record['rendered_by']}`; most sections trained at `{version}` (`manifest.json`). "
+        + (f"**Stale sections, flagged below: {', '.join(others)}.** " if others else "")
+        + f"Versions: {', '.join(f'{k} {v}' for k, v in record['versions'].items())}; {record['platform']}.",
+        "",
+        *_summary_figure(list(sections.values()), out),
+        *_verdicts(claims, scales, marks),
+        *suite_scores(list(sections.values())),
+        *headroom_table(list(sections.values())),
+    ]
+    body: list[str] = []
+    for folder in folders:
+        body += _section(folder, sections.get(folder), version)
+    text = "\n".join(head + body + _method())
+    (out / "results.md").write_text(text)
+    (out / "claims.json").write_text(json.dumps(claims, indent=1))
+    (out / "claims.md").write_text(
+        claims_table(claims, scales, marks=marks) + claims_table(claims, scales, True, marks)
+    )
+    record["files"] = {  # the page's own files (a page folder's index.md is results.md)
+        **files_sha256([out / "claims.json"], out),
+        "index.md": hashlib.sha256(text.encode()).hexdigest(),
+    }
+    (out / "manifest.json").write_text(json.dumps(record, indent=1))
+    if page is None:
+        return out / "results.md"
+    page = Path(page)
+    page.mkdir(parents=True, exist_ok=True)
+    (page / "index.md").write_text(text)
+    for name in ("claims.json", "manifest.json", summary_figure.FILE):
+        if (out / name).exists() and (page / name).resolve() != (out / name).resolve():
+            shutil.copy(out / name, page / name)
+    shutil.rmtree(page / "figures", ignore_errors=True)  # the layout before raw data: figures/<env>-<budget>/
+    for folder in folders:
+        _publish(folder, page)
+    return page / "index.md"

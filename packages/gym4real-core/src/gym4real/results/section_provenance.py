@@ -1,0 +1,70 @@
+"""The provenance lines of a results section: whether it is current, and who trained each run."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pandas as pd
+
+#: Shown for what a section's files do not record (runs trained before the record existed).
+NOT_RECORDED = "not recorded"
+
+
+def currency_line(stale: list[str], verified: dict[str, str] | None = None) -> str:
+    """The section's line on its fingerprints (:func:`gym4real.results.fingerprints.section_changes`).
+
+    ``verified``: for a section trained before sections recorded fingerprints, how each recorded one was
+    verified (``report.json``'s ``fingerprints_verified``, by ``scripts/verify_fingerprints.py``).
+    """
+    if not stale:
+        line = (
+            "**Current**: its test protocol, data and trainer fingerprints equal those of the code that rendered "
+            "this page (`gym4real reproduce --check`)."
+        )
+    else:
+        line = f"**Stale** (`gym4real reproduce --check`): {'; '.join(stale)}."
+    if verified:
+        line += " Fingerprints recorded after the run, each where verified: " + "; ".join(
+            f"{part}: {how}" for part, how in verified.items()
+        )
+        line += "."
+    return line
+
+
+def _resumes(text: object) -> str:
+    """A run's resume record (``runs.csv``'s JSON list) in words."""
+    if not isinstance(text, str) or text == NOT_RECORDED:
+        return NOT_RECORDED
+    resumes = json.loads(text)
+    if not resumes:
+        return "never"
+    return ", ".join(f"at {r['at']:,} {r['unit']} by `{r.get('code_version', '?')}`" for r in resumes)
+
+
+def run_provenance(runs: pd.DataFrame | None, algo: str, seed: int) -> tuple[str, str]:
+    """A run's training commit and resume record, as ``runs.csv`` has them, else :data:`NOT_RECORDED`."""
+    if runs is None:
+        return NOT_RECORDED, NOT_RECORDED
+    row = runs[(runs["algo"] == algo) & (runs["seed"] == int(seed))]
+    if not len(row):
+        return NOT_RECORDED, NOT_RECORDED
+    trained_by = row["trained_by"].iloc[0] if "trained_by" in row else NOT_RECORDED
+    trained = f"`{trained_by}`" if isinstance(trained_by, str) and trained_by != NOT_RECORDED else NOT_RECORDED
+    return trained, _resumes(row["resumes"].iloc[0] if "resumes" in row else NOT_RECORDED)
+
+
+def models_lines(folder: Path, name: str) -> list[str]:
+    """The section's line on its trained models (``models.json``), and a blank line; none without a listing."""
+    listing_path = folder / "models.json"
+    if not listing_path.exists():
+        return []
+    listing = json.loads(listing_path.read_text())
+    shipped = [m for m in listing if m["published"]]
+    line = (
+        f"Models: {len(shipped)} of {len(listing)} published in [`models/`]({name}/models.json) (each with its "
+        "SHA-256 and the `gym4real evaluate` command that reruns its test episodes)"
+    )
+    if len(shipped) < len(listing):
+        line += "; the others are listed with why and the `gym4real train` command that trains them again"
+    return [line + ".", ""]

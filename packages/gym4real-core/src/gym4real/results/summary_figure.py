@@ -1,0 +1,80 @@
+"""The results page's summary figure: per env, every agent and baseline on the objective, with intervals.
+
+One panel per env: each policy's IQM of the per-episode objective (a marker, always drawn, so that a
+zero-width interval stays visible) and its 95 % two-level bootstrap interval (a bar, when it has a width),
+from the section's ``summary.csv``; RL agents stand out from the baselines; every panel's axis spans every
+point and bound.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+#: The figure's file name, beside the page.
+FILE = "summary.png"
+#: The fraction of a panel's span left free on either side.
+PAD = 0.06
+
+
+def limits(summary: pd.DataFrame) -> tuple[float, float]:
+    """The x range of a panel: every IQM and bound inside, with :data:`PAD` of the span free on each side."""
+    values = summary[["iqm", "low", "high"]].to_numpy(float).ravel()
+    lo, hi = float(values.min()), float(values.max())
+    span = hi - lo if hi > lo else max(1.0, abs(lo)) * 0.1
+    return lo - PAD * span, hi + PAD * span
+
+
+def figure(panels: list[tuple[str, str, pd.DataFrame]]) -> Any:
+    """The summary figure (a matplotlib Figure), one panel per ``(env id, objective label, summary.csv)``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.ticker import FuncFormatter
+
+    from gym4real.bench.numbers import human
+
+    heights = [0.5 + 0.32 * len(s) for _, _, s in panels]
+    fig, axes = plt.subplots(
+        len(panels),
+        1,
+        figsize=(8.0, 0.9 + sum(heights)),
+        squeeze=False,
+        gridspec_kw={"height_ratios": heights},
+        layout="constrained",
+    )
+    for ax, (env_id, objective, summary) in zip(axes[:, 0], panels, strict=True):
+        names = summary["policy"].tolist()
+        y = np.arange(len(names))[::-1]
+        for row, pos in zip(summary.to_dict("records"), y, strict=True):
+            agent = row["kind"] == "agent"
+            colour = "C3" if agent else "0.35"
+            if row["high"] > row["low"]:
+                ax.hlines(pos, row["low"], row["high"], color=colour, lw=2.2 if agent else 1.6)
+            ax.plot(row["iqm"], pos, "D" if agent else "o", color=colour, ms=7 if agent else 5, zorder=3)
+        labels = [f"{n} (agent)" if k == "agent" else n for n, k in zip(names, summary["kind"], strict=True)]
+        ax.set_yticks(y, labels)
+        ax.set_ylim(-0.7, len(names) - 0.3)
+        ax.set_xlim(*limits(summary))
+        ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: human(v)))
+        ax.grid(axis="x", alpha=0.3)
+        ax.set_title(f"{env_id}: IQM of the objective ({objective}), 95 % interval; higher is better", fontsize=9)
+    fig.suptitle("Every agent (red diamonds) and baseline on each env's test protocol", fontsize=10)
+    return fig
+
+
+def write(panels: list[tuple[str, str, pd.DataFrame]], folder: Path) -> Path | None:
+    """Write :data:`FILE` into ``folder`` from the panels (see :func:`figure`); None when there are none."""
+    if not panels:
+        return None
+    import matplotlib.pyplot as plt
+
+    fig = figure(panels)
+    path = Path(folder) / FILE
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
