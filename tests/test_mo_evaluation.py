@@ -123,7 +123,7 @@ def test_shipped_fronts_values_follow_from_their_episodes(env_id: str) -> None:
     reference = mo_reference.load(env_id)
     assert reference is not None
     spec = mo_spec(env_id)
-    assert set(reference.fronts) == {*(s.name for s in spec.sweeps), mo_reference.RULE_BASED}
+    assert set(reference.fronts) == {*(s.name for s in spec.sweeps), mo_reference.RULE_BASED, "hindsight"}
     for name, front in reference.fronts.items():
         shipped = reference.record["fronts"][name]
         points = reference.scale.normalise(front.means)
@@ -214,6 +214,32 @@ def test_add_front_adds_a_weighted_front_and_keeps_the_rest(tmp_path: Path, monk
         assert after.record["fronts"][name] == before.record["fronts"][name]
     with pytest.raises(ConfigError, match="already has a front `planner`"):
         mo_reference.add_front(env_id, "planner", "hindsight", "again", planner, folder=tmp_path)
+
+
+@pytest.mark.parametrize("env_id", MO_IDS)
+def test_the_shipped_hindsight_front_is_an_upper_reference_of_the_rule_based_front(env_id: str) -> None:
+    """The hindsight planners' weighted front (scripts/export_mo_references.py --hindsight --divisions 7), from the
+    shipped file: its hypervolume and EUM are at least the rule-based front's; it ran at the 8 weights k / 7 of the
+    EUM lattice, handed the raw weights that rank as each does on the normalised scale, and its CPU time is kept."""
+    reference = mo_reference.load(env_id)
+    assert reference is not None
+    hindsight, rules = reference.fronts["hindsight"], reference.fronts[mo_reference.RULE_BASED]
+    assert hindsight.kind == "hindsight" and "non-causal" in hindsight.description
+    assert hindsight.labels == ["w=" + ",".join(f"{x:.4g}" for x in w) for w in mo_metrics.simplex_weights(2, 8)]
+    assert "lattice of 7 divisions" in hindsight.description
+    assert reference.record["manifest"]["cpu_s (hindsight)"] > 0
+
+    def values(front: mo_reference.Front) -> tuple[float, float]:
+        points = reference.scale.normalise(front.means)
+        return mo_metrics.hypervolume(points), mo_metrics.expected_utility(points, reference.weights)
+
+    (hv, eum), (rule_hv, rule_eum) = values(hindsight), values(rules)
+    assert hv >= rule_hv and eum >= rule_eum
+    # stronger: each rule-based policy's mean vector is weakly dominated by one of the hindsight front's (to the
+    # last digits: wds's `both pumps on` serves the demand the hindsight planner of the DSR alone serves)
+    for label, point in zip(rules.labels, rules.means, strict=True):
+        slack = (hindsight.means - point + 1e-9 * np.abs(point)).min(axis=1).max()
+        assert slack >= 0, label
 
 
 def test_raw_weights_rank_as_the_weights_on_the_normalised_scale() -> None:
@@ -325,7 +351,7 @@ def test_info_json_shows_the_objectives_and_the_reference_point(capsys: pytest.C
     shipped = mo_reference.load("gym4real/wds-mo-v0")
     assert shipped is not None
     assert record["reference_point"] == shipped.scale.reference_point.tolist()
-    assert set(record["reference_fronts"]) == {"constant_pumps", "tank_level_rule", "rule_based"}
+    assert set(record["reference_fronts"]) == {"constant_pumps", "tank_level_rule", "rule_based", "hindsight"}
 
 
 def test_cli_arguments_group_into_sets_by_name() -> None:
@@ -419,4 +445,5 @@ def test_the_env_page_documents_the_objectives_reference_point_and_fronts(load_s
     assert ", ".join(f"{v:.6g}" for v in shipped.scale.reference_point) in text
     for name, front in shipped.record["fronts"].items():
         assert f"| `{name}` | {front['kind']} | {front['hypervolume']:.4f} | {front['eum']:.4f} |" in text
+    assert "`hindsight` (hindsight): non-causal upper reference" in text
     assert gen_pages.mo_section("gym4real/elevator-v0") == []
