@@ -202,6 +202,9 @@ def mo_section(env_id: str) -> list[str]:
         "",
         "Fronts: " + "; ".join(f"`{s.name}`: {s.description}" for s in spec.sweeps) + ".",
     ]
+    others = {n: f for n, f in record["reference_fronts"].items() if f["kind"] != "rule_based"}
+    if others:
+        lines += ["", *(f"`{name}` ({f['kind']}): {f['description']}." for name, f in others.items())]
     return lines
 
 

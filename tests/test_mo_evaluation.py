@@ -123,7 +123,7 @@ def test_shipped_fronts_values_follow_from_their_episodes(env_id: str) -> None:
     reference = mo_reference.load(env_id)
     assert reference is not None
     spec = mo_spec(env_id)
-    assert set(reference.fronts) == {*(s.name for s in spec.sweeps), mo_reference.RULE_BASED}
+    assert set(reference.fronts) == {*(s.name for s in spec.sweeps), mo_reference.RULE_BASED, "hindsight"}
     for name, front in reference.fronts.items():
         shipped = reference.record["fronts"][name]
         points = reference.scale.normalise(front.means)
@@ -198,11 +198,11 @@ def test_add_front_adds_a_weighted_front_and_keeps_the_rest(tmp_path: Path, monk
 
     monkeypatch.setattr(mo_reference, "run_objectives", fake_run)
     mo_reference.add_front(
-        env_id, "hindsight", "hindsight", "a planner scoring its weights", planner, seed=3, folder=tmp_path
+        env_id, "planner", "hindsight", "a planner scoring its weights", planner, seed=3, folder=tmp_path
     )
     after = mo_reference.load(env_id, tmp_path)
     assert after is not None
-    entry = after.record["fronts"]["hindsight"]
+    entry = after.record["fronts"]["planner"]
     assert len(entry["policies"]) == 50 and entry["kind"] == "hindsight"
     # points (k/49, 1 - k/49): a staircase of 49 columns of width 1/49 and heights 1 - k/49, k = 1..49
     assert entry["hypervolume"] == pytest.approx(sum((1 - k / 49) / 49 for k in range(1, 50)), rel=1e-9)
@@ -212,8 +212,87 @@ def test_add_front_adds_a_weighted_front_and_keeps_the_rest(tmp_path: Path, monk
     np.testing.assert_array_equal(after.scale.reference_point, before.scale.reference_point)
     for name in before.fronts:
         assert after.record["fronts"][name] == before.record["fronts"][name]
-    with pytest.raises(ConfigError, match="already has a front `hindsight`"):
-        mo_reference.add_front(env_id, "hindsight", "hindsight", "again", planner, folder=tmp_path)
+    with pytest.raises(ConfigError, match="already has a front `planner`"):
+        mo_reference.add_front(env_id, "planner", "hindsight", "again", planner, folder=tmp_path)
+
+
+@pytest.mark.parametrize("env_id", MO_IDS)
+def test_the_shipped_hindsight_front_is_an_upper_reference_of_the_rule_based_front(env_id: str) -> None:
+    """The hindsight planners' weighted front (scripts/export_mo_references.py --hindsight --divisions 7), from the
+    shipped file: its hypervolume and EUM are at least the rule-based front's; it ran at the 8 weights k / 7 of the
+    EUM lattice, handed the raw weights that rank as each does on the normalised scale, and its CPU time is kept."""
+    reference = mo_reference.load(env_id)
+    assert reference is not None
+    hindsight, rules = reference.fronts["hindsight"], reference.fronts[mo_reference.RULE_BASED]
+    assert hindsight.kind == "hindsight" and "non-causal" in hindsight.description
+    assert hindsight.labels == ["w=" + ",".join(f"{x:.4g}" for x in w) for w in mo_metrics.simplex_weights(2, 8)]
+    assert "lattice of 7 divisions" in hindsight.description
+    assert reference.record["manifest"]["cpu_s (hindsight)"] > 0
+
+    def values(front: mo_reference.Front) -> tuple[float, float]:
+        points = reference.scale.normalise(front.means)
+        return mo_metrics.hypervolume(points), mo_metrics.expected_utility(points, reference.weights)
+
+    (hv, eum), (rule_hv, rule_eum) = values(hindsight), values(rules)
+    assert hv >= rule_hv and eum >= rule_eum
+    # stronger: each rule-based policy's mean vector is weakly dominated by one of the hindsight front's (to the
+    # last digits: wds's `both pumps on` serves the demand the hindsight planner of the DSR alone serves)
+    for label, point in zip(rules.labels, rules.means, strict=True):
+        slack = (hindsight.means - point + 1e-9 * np.abs(point)).min(axis=1).max()
+        assert slack >= 0, label
+
+
+def test_raw_weights_rank_as_the_weights_on_the_normalised_scale() -> None:
+    scale = mo_reference.Scale(np.array([-10.0, -300.0]), np.array([0.0, -100.0]))
+    raw = scale.raw_weights([0.5, 0.5])
+    np.testing.assert_allclose(raw, [20 / 21, 1 / 21])  # 0.5 / 10 and 0.5 / 200, summing to 1
+    rng = np.random.default_rng(0)
+    a, b = rng.uniform(-300, 0, (2, 100, 2))
+    w = np.array([0.3, 0.7])
+    better = (scale.normalise(a) @ w) > (scale.normalise(b) @ w)
+    np.testing.assert_array_equal(better, (a @ scale.raw_weights(w)) > (b @ scale.raw_weights(w)))
+    for bad in ([1.0], [-1.0, 2.0], [0.0, 0.0], [np.nan, 1.0]):
+        with pytest.raises(ConfigError, match="non-negative"):
+            scale.raw_weights(bad)
+
+
+def test_component_weights_weigh_each_step_as_its_objective() -> None:
+    spec = mo_spec("gym4real/dam-mo-v0")
+    assert spec.component_weights([0.25, 0.75]) == {"deficit": 0.25, "starving": 0.25, "overflow": 0.75}
+    with pytest.raises(ConfigError, match="shortage"):
+        spec.component_weights([0.0, 0.0])
+
+
+def test_add_front_at_given_normalised_weights_replaces_a_front(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    env_id = "gym4real/dam-mo-v0"
+    shutil.copy(mo_reference.path_of(env_id), tmp_path)
+    reference = mo_reference.load(env_id, tmp_path)
+    assert reference is not None
+    given: list[np.ndarray] = []
+
+    def planner(env: Any, weights: np.ndarray) -> np.ndarray:
+        given.append(weights)
+        return weights
+
+    def fake_run(env_id: str, build: Any, plan: Any, kwargs: Any, label: str) -> np.ndarray:
+        return np.tile(build(None), (len(plan), 1))
+
+    monkeypatch.setattr(mo_reference, "run_objectives", fake_run)
+    grid = np.array([[1.0, 0.0], [0.5, 0.5], [0.0, 1.0]])
+    for _ in range(2):  # the second run replaces the first
+        mo_reference.add_front(
+            env_id, "mine", "hindsight", "three weights", planner, folder=tmp_path, weights=grid, normalised=True,
+            replace=True,
+        )  # fmt: skip
+    after = mo_reference.load(env_id, tmp_path)
+    assert after is not None
+    assert after.fronts["mine"].labels == ["w=1,0", "w=0.5,0.5", "w=0,1"]
+    np.testing.assert_allclose(given[:3], [reference.scale.raw_weights(w) for w in grid])
+    assert "cpu_s (mine)" in after.record["manifest"]
+    with pytest.raises(ConfigError, match="summing to 1"):
+        mo_reference.add_front(env_id, "other", "x", "y", planner, folder=tmp_path, weights=np.array([[1.0, 1.0]]))
 
 
 def test_the_reference_point_rule_needs_a_range() -> None:
@@ -272,7 +351,7 @@ def test_info_json_shows_the_objectives_and_the_reference_point(capsys: pytest.C
     shipped = mo_reference.load("gym4real/wds-mo-v0")
     assert shipped is not None
     assert record["reference_point"] == shipped.scale.reference_point.tolist()
-    assert set(record["reference_fronts"]) == {"constant_pumps", "tank_level_rule", "rule_based"}
+    assert set(record["reference_fronts"]) == {"constant_pumps", "tank_level_rule", "rule_based", "hindsight"}
 
 
 def test_cli_arguments_group_into_sets_by_name() -> None:
@@ -365,5 +444,6 @@ def test_the_env_page_documents_the_objectives_reference_point_and_fronts(load_s
     assert shipped is not None
     assert ", ".join(f"{v:.6g}" for v in shipped.scale.reference_point) in text
     for name, front in shipped.record["fronts"].items():
-        assert f"| `{name}` | rule_based | {front['hypervolume']:.4f} | {front['eum']:.4f} |" in text
+        assert f"| `{name}` | {front['kind']} | {front['hypervolume']:.4f} | {front['eum']:.4f} |" in text
+    assert "`hindsight` (hindsight): non-causal upper reference" in text
     assert gen_pages.mo_section("gym4real/elevator-v0") == []

@@ -1,7 +1,9 @@
 from __future__ import annotations
 
 import itertools
+import json
 from pathlib import Path
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -9,8 +11,10 @@ import pandas as pd
 import pytest
 
 import gym4real
-from gym4real.bench import stats
-from gym4real.dam.hindsight import DamHindsight
+from gym4real.bench import mo_metrics, stats
+from gym4real.bench.upper_reference import PlanCache
+from gym4real.core.errors import ConfigError
+from gym4real.dam.hindsight import DamHindsight, weighted_hindsight
 
 pytest.importorskip("numba")
 
@@ -109,3 +113,76 @@ def test_hindsight_beats_the_rule_based_baselines_and_the_published_agent_on_the
     published = pd.read_csv(PAPER)
     for (policy, seed), rows in published.groupby(["policy", published["seed"].fillna(-1)]):
         assert upper >= stats.iqm(rows.sort_values("episode")["objective"]), (policy, seed)
+
+
+# -- the weighted planner of gym4real/dam-mo-v0 (the multi-objective upper reference front) -----------------------
+
+MO_ENV = "gym4real/dam-mo-v0"
+#: A 1 cm band between the starving and the flood level, from its bottom: releasing keeps the lake from flooding
+#: and brings it to starving, holding water back does the reverse, so shortage and flooding compete.
+BAND = {"starving_level": 1.20, "flood_level": 1.21}
+WEIGHTS = [(1.0, 0.0), (0.0, 1.0), (0.5, 0.5), (0.9, 0.1), (0.2, 0.8), (0.02, 0.98)]
+
+
+def _vector(env: gym.Env, policy: Any, options: dict, days: int) -> np.ndarray:
+    """(shortage, flooding) of a policy or of a sequence of releases, stepped through the vector-reward env."""
+    obs, _ = env.reset(options=options)
+    if hasattr(policy, "reset"):
+        policy.reset(None)
+    names = env.unwrapped.components
+    total = np.zeros(2)
+    for t in range(days):
+        obs, reward, _, _, _ = env.step(policy(obs) if callable(policy) else np.array([policy[t]]))
+        parts = dict(zip(names, reward, strict=True))
+        total += (parts["deficit"] + parts["starving"], parts["overflow"])
+    return total
+
+
+@pytest.mark.parametrize("year", [1951, 2000])
+def test_the_weighted_plan_is_at_least_the_best_of_a_fine_brute_force_at_each_weight(year: int) -> None:
+    """Three days in a band where shortage and flooding compete (the brute force's front has 4 points on these
+    years): at each weight, every sequence of releases on a 25-value grid of the action box, scored by the
+    weighted objective, is at most what the weighted planner replays through the vector-reward env."""
+    env = gym.make(MO_ENV, preset="train", sim_horizon=3, year_selection="cycle", **BAND)
+    options = {"year": year, "init_level": 1.20}
+    grid = np.linspace(0.0, float(env.action_space.high[0]), 25)
+    brute = np.array([_vector(env, seq, options, 3) for seq in itertools.product(grid, repeat=3)])
+    assert len({tuple(v) for v in brute[mo_metrics.nondominated(brute)].round(6)}) >= 2  # a real trade-off
+    found: dict[tuple[float, float], np.ndarray] = {}
+    for w in WEIGHTS:
+        policy = weighted_hindsight(env, weights=w)
+        policy._cache = PlanCache(None)
+        got = _vector(env, policy, options, 3)
+        best = float((brute @ np.array(w)).max())
+        assert got @ np.array(w) >= best - 1e-9 * max(1.0, abs(best)), w
+        assert policy.forward_objectives[-1] == pytest.approx(got @ np.array(w), rel=1e-12, abs=1e-9)
+        found[w] = got
+    assert found[(0.0, 1.0)][1] == 0.0 and found[(1.0, 0.0)][0] > brute[:, 0].max()  # beyond the grid's best
+
+
+def test_weights_are_in_the_plan_cache_key(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Unit weights plan the same days as the protocol's objective, but under another key: neither is taken for
+    the other."""
+    monkeypatch.setenv("GYM4REAL_CACHE_DIR", str(tmp_path))
+    env = gym.make(ENV, preset="train", sim_horizon=5, year_selection="cycle")
+    plain = DamHindsight(env)
+    a = _replay(env, plain, {"year": 1951})
+    unit = DamHindsight(env, weights=(1.0, 1.0))
+    assert _replay(env, unit, {"year": 1951}) == a  # the same objective: the same plan, planned again
+    (cache,) = (tmp_path / "hindsight").glob("*.json")
+    assert len(json.loads(cache.read_text())["plans"]) == 2
+    for weights in (None, (1.0, 1.0)):
+        again = DamHindsight(env, weights=weights)
+        again._solve = None  # type: ignore[assignment,method-assign]  # a cache miss would call it and fail
+        assert _replay(env, again, {"year": 1951}) == a
+    other = DamHindsight(env, weights=(0.5, 0.5))
+    other._solve = None  # type: ignore[assignment,method-assign]
+    with pytest.raises(TypeError):  # other weights: another plan, not in the cache
+        _replay(env, other, {"year": 1951})
+
+
+def test_the_weighted_planner_refuses_bad_weights() -> None:
+    env = gym.make(MO_ENV, preset="train", sim_horizon=3)
+    for bad in [(1.0,), (1.0, -0.5), (0.0, 0.0), (float("nan"), 1.0)]:
+        with pytest.raises(ConfigError, match="shortage"):
+            weighted_hindsight(env, weights=bad)

@@ -11,8 +11,10 @@ the package-data file ``gym4real/<domain>/reference/<name>.mo.json``, written on
   checked against them;
 - **reference fronts**, each a set of policies with their per-test-episode objective vectors: each
   rule-based sweep of the spec, and ``rule_based``, all the sweeps' policies together; :func:`add_front`
-  adds another (the weighted front of a hindsight planner: ``factory(env, weights=w, seed=S)`` run at the
-  EUM weights). A front's value is the hypervolume and the EUM of its policies' mean vectors;
+  adds another: the shipped files hold ``hindsight``, the weighted front of the domain's hindsight planner
+  (``factory(env, weights=w)`` run at some EUM weights, handed raw weights that rank as ``w`` on the
+  normalised scale; ``scripts/export_mo_references.py --hindsight``). A front's value is the hypervolume
+  and the EUM of its policies' mean vectors;
 - the **fingerprint** of the protocol (:func:`gym4real.bench.reference.fingerprint`) with the objectives
   and margin: :func:`load` refuses a file measured on another protocol or for other objectives, naming each
   difference.
@@ -22,6 +24,7 @@ from __future__ import annotations
 
 import functools
 import json
+import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from importlib import resources
@@ -31,7 +34,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from gym4real.bench import mo_metrics
+from gym4real.bench import mo_metrics, versions
 from gym4real.bench.benchmark import protocol, run_episode
 from gym4real.bench.policies import make_policy
 from gym4real.bench.reference import FINGERPRINT_FIELDS, FOLDER, domain_package, fingerprint
@@ -62,6 +65,23 @@ class Scale:
     def normalise(self, values: np.ndarray) -> np.ndarray:
         """``(values - reference_point) / (top - reference_point)``, over the last axis."""
         return (np.asarray(values, dtype=float) - self.reference_point) / (self.top - self.reference_point)
+
+    def raw_weights(self, weights: Sequence[float]) -> np.ndarray:
+        """Weights over the raw objectives that rank objective vectors as ``weights`` does on this scale.
+
+        ``w . normalise(v)`` is ``sum_i w_i v_i / (top_i - reference_point_i)`` plus a constant, so maximising
+        it maximises ``v`` weighted by ``w_i / (top_i - reference_point_i)``; returned rescaled to sum to 1.
+
+        Raises:
+            ConfigError: Not one finite, non-negative weight per objective, or all of them 0.
+        """
+        w = np.asarray(weights, dtype=float)
+        if w.shape != self.top.shape or not np.isfinite(w).all() or (w < 0).any() or not w.sum() > 0:
+            raise ConfigError(
+                f"weights must be {self.top.size} finite non-negative numbers, not all 0; got {w.tolist()}"
+            )
+        raw = w / (self.top - self.reference_point)
+        return np.asarray(raw / raw.sum())
 
 
 def reference_scale(random_episodes: np.ndarray, margin: float) -> Scale:
@@ -292,8 +312,6 @@ def _write(reference: MOReference, path: Path, manifest: Mapping[str, Any]) -> P
 
 
 def _manifest(command: str) -> dict[str, Any]:
-    from gym4real.bench import versions
-
     return {"command": command, "code_version": versions.code_version(), "versions": versions.versions()}
 
 
@@ -409,32 +427,65 @@ def add_front(
     seed: int | None = None,
     folder: str | Path | None = None,
     command: str = "",
+    weights: np.ndarray | None = None,
+    normalised: bool = False,
+    replace: bool = False,
 ) -> Path:
     """Add a weighted front to an id's shipped file: ``factory(env, weights=w[, seed=seed])`` at each EUM weight.
 
     This is how the hindsight planners' upper reference front is added: one call, for example
     ``add_front("gym4real/dam-mo-v0", "hindsight", "hindsight", "the hindsight planner of ...",
-    planner_factory)``. The reference point and the other fronts stay as they are.
+    planner_factory, normalised=True)``. The reference point and the other fronts stay as they are. The
+    CPU time of the runs (this process's) and the code version are kept in the manifest as ``cpu_s (<name>)``
+    and ``code_version (<name>)``.
+
+    Args:
+        env_id: A vector-reward id whose file exists (:func:`export`).
+        name: The front's name in the file (``hindsight``).
+        kind: What the front is (``hindsight``).
+        description: What its policies are, and at which weights they ran.
+        factory: ``factory(env, weights=w[, seed=seed])`` returns a policy for the vector-reward env.
+        seed: Passed to the factory when given.
+        folder: The folder of the file, as in :func:`load`.
+        command: The command that measured the front, kept in the manifest.
+        weights: Run at these weights (over the objectives, ``(count, objectives)``) instead of the EUM's
+            lattice, for a factory too slow to run at all of them; the front's EUM is still the mean over
+            the EUM's weights (of the best of its policies at each). Say so in ``description``.
+        normalised: Hand the factory, at weight ``w``, the weights over the raw objectives that rank
+            objective vectors as ``w`` does on the normalised scale (:meth:`Scale.raw_weights`): a planner
+            maximising its weighted objective then maximises ``w . z``, the utility the EUM takes at ``w``.
+            The policies are still labelled by ``w``.
+        replace: Measure the front again when the file already has one of that name (it is dropped first).
 
     Raises:
-        ConfigError: The id ships no reference file yet (run :func:`export` first), or ``name`` is taken.
+        ConfigError: The id ships no reference file yet (run :func:`export` first), ``name`` is taken, or
+            ``weights`` is not one row of non-negative weights per policy, each summing to 1.
     """
     reference = load(env_id, folder)
     if reference is None:
         raise ConfigError(f"`{env_id}` ships no `{path_of(env_id, folder).name}`: run `export` first")
-    if name in reference.fronts:
+    if name in reference.fronts and not replace:
         raise ConfigError(f"`{env_id}` already has a front `{name}`; remove it from the file or pick another name")
+    reference.fronts.pop(name, None)
+    grid = reference.weights if weights is None else np.atleast_2d(np.asarray(weights, dtype=float))
+    objectives = len(reference.spec.objectives)
+    if grid.shape[1] != objectives or (grid < 0).any() or not np.allclose(grid.sum(axis=1), 1.0):
+        raise ConfigError(f"`weights` must be rows of {objectives} non-negative weights summing to 1; got {grid}")
     plan, kwargs = test_plan(env_id)
     labels, rows = [], []
     extra = {} if seed is None else {"seed": seed}
-    for w in reference.weights:
+    started = time.process_time()
+    for w in grid:
         label = "w=" + ",".join(f"{x:.4g}" for x in w)
-        rows.append(run_objectives(env_id, functools.partial(factory, weights=w, **extra), plan, kwargs, label))
+        given = reference.scale.raw_weights(w) if normalised else w
+        rows.append(run_objectives(env_id, functools.partial(factory, weights=given, **extra), plan, kwargs, label))
         labels.append(label)
     reference.fronts[name] = Front(name, kind, description, labels, np.array(rows))
-    manifest = reference.record.get("manifest", {})
+    manifest = dict(reference.record.get("manifest", {}))
     if command:
-        manifest = {**manifest, f"command ({name})": command}
+        manifest[f"command ({name})"] = command
+    manifest[f"cpu_s ({name})"] = round(time.process_time() - started, 1)
+    manifest[f"code_version ({name})"] = versions.code_version()
     return _write(reference, path_of(env_id, folder), manifest)
 
 
@@ -442,7 +493,7 @@ def summary(env_id: str) -> dict[str, Any] | None:
     """What ``gym4real info`` shows of a vector-reward id's evaluation; None when its domain declares none.
 
     The objectives, the components left out, the reference point with its rule, and each shipped front's
-    hypervolume and EUM (or why there are none).
+    kind, hypervolume, EUM and description (or why there are none).
     """
     from gym4real.core.mo_spec import mo_ids
 
@@ -461,7 +512,7 @@ def summary(env_id: str) -> dict[str, Any] | None:
     out["top"] = point["top"]
     out["weights"] = record["weights"]
     out["reference_fronts"] = {
-        name: {"kind": f["kind"], "hypervolume": f["hypervolume"], "eum": f["eum"]}
+        name: {"kind": f["kind"], "hypervolume": f["hypervolume"], "eum": f["eum"], "description": f["description"]}
         for name, f in record["fronts"].items()
     }
     return out

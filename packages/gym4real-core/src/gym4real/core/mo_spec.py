@@ -160,6 +160,23 @@ class MultiObjectiveSpec:
         of = {c: w for o, w in zip(self.objectives, weights, strict=True) for c in o.components}
         return np.array([float(of.get(c, 0.0)) for c in components])
 
+    def component_weights(self, weights: Sequence[float]) -> dict[str, float]:
+        """Each component of an objective with its objective's weight: the weighted scalarisation per step.
+
+        ``sum_c weight_c x_c`` over a step's reward components ``x`` sums, over an episode, to ``weights``
+        times the objective vector (:meth:`values`); for a planner that optimises the weighted objective.
+
+        Raises:
+            ConfigError: Not one finite, non-negative weight per objective, or all of them 0.
+        """
+        w = np.asarray(weights, dtype=float)
+        if w.shape != (len(self.objectives),) or not np.isfinite(w).all() or (w < 0).any() or not w.sum() > 0:
+            raise ConfigError(
+                f"`{self.env_id}` takes {len(self.objectives)} finite non-negative weights, not all 0, over its "
+                f"objectives {list(self.names)}; got {np.asarray(weights).tolist()}"
+            )
+        return {c: float(x) for o, x in zip(self.objectives, w, strict=True) for c in o.components}
+
     def record(self) -> dict[str, Any]:
         """JSON-ready: the objectives, what is left out, the margin and the sweeps."""
         return {

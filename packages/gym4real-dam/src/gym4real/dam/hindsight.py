@@ -23,6 +23,14 @@ trajectory of the environment itself, and replaying it through :meth:`DamEnv.ste
 the forward pass computed. ``planned_objectives`` holds the programme's own estimate ``V_0(level)``
 (interpolated on the grid) of each episode, beside the replayed score the protocol records.
 
+**Weights.** Given ``weights`` over the objectives of ``gym4real/dam-mo-v0`` (shortage, flooding:
+:mod:`gym4real.dam.multi_objective`), the programme plans the weighted objective instead: each day's deficit
+and starving terms weighted by the shortage weight, its overflow term by the flooding weight, which sum over
+the year to ``weights`` times the objective vector (:func:`weighted_hindsight`, the factory of the
+multi-objective upper reference front). ``planned_objectives`` and ``forward_objectives`` are then of the
+weighted objective, and the weights are in the plan's cache key. Without weights (the default) nothing
+changes: the protocol's objective, the same cache keys.
+
 **Grid.** The default 2.5 mm grid: halving it to 1.25 mm changed the IQM of the replayed objective over the
 13 test years by 0.16 %, and each year's by at most 0.55 % (2010; docs/headroom.md tables the gaps,
 and a slow test checks that year);
@@ -33,6 +41,7 @@ per year (the 13 test years: about 64 s); plans are cached.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import gymnasium as gym
@@ -42,6 +51,7 @@ from gym4real.bench.upper_reference import PlanCache, plan_cache, plan_key
 from gym4real.core.errors import ConfigError
 from gym4real.dam.env import DamEnv
 from gym4real.dam.lake import SECONDS_PER_DAY
+from gym4real.dam.multi_objective import SPECS
 
 #: The planner's version in its cache keys: bump it when a change alters the plans.
 VERSION = "dam-dp-1"
@@ -66,16 +76,29 @@ class DamHindsight:
         env: The dam environment (``gymnasium.make`` output or raw); its current episode is planned.
         step: Grid spacing of the lake level (m), positive.
         cache: Reuse plans from the user cache (:func:`gym4real.bench.upper_reference.plan_cache`).
+        weights: Plan the weighted objective of ``gym4real/dam-mo-v0`` (one non-negative weight per
+            objective: shortage, flooding) instead of the protocol's; None: the protocol's.
     """
 
-    def __init__(self, env: gym.Env[Any, Any], step: float = STEP, cache: bool = True) -> None:
+    def __init__(
+        self,
+        env: gym.Env[Any, Any],
+        step: float = STEP,
+        cache: bool = True,
+        weights: Sequence[float] | None = None,
+    ) -> None:
         if not (math.isfinite(step) and step > 0):
             raise ConfigError(f"hindsight `step` must be a positive grid spacing in m, not {step}")
+        owned = getattr(env.unwrapped, "env", None)  # the env a vector-reward variant (dam-mo-v0) owns
+        if not isinstance(env.unwrapped, DamEnv) and owned is not None:
+            env = owned
         unwrapped = env.unwrapped
         if not isinstance(unwrapped, DamEnv):
             raise ConfigError(f"the dam's hindsight planner needs a DamEnv, not {type(unwrapped).__name__}")
         self.env: DamEnv = unwrapped
         self.step = float(step)
+        self.weights = None if weights is None else tuple(float(w) for w in weights)
+        self._component_weights = None if weights is None else SPECS[0].component_weights(weights)
         self._cache: PlanCache = plan_cache(env, VERSION) if cache else PlanCache(None)
         self._plan: list[float] = []
         self.planned_objectives: list[float] = []
@@ -119,6 +142,15 @@ class DamHindsight:
             float(env.config.flood_level),
             float(env.config.starving_level),
         )
+        if self._component_weights is not None:  # the weighted objective: each term by its objective's weight
+            of = self._component_weights
+            costs = (
+                costs[0] * of["deficit"],
+                costs[1] * of["overflow"],
+                costs[2] * of["starving"],
+                costs[3],
+                costs[4],
+            )
         box = (float(env.action_space.low[0]), float(env.action_space.high[0]))
         return {
             "exogenous": exogenous,
@@ -161,7 +193,12 @@ class DamHindsight:
     def plan(self) -> list[float]:
         """Plan the environment's current episode from its current state; return the daily wanted releases."""
         c = self._constants()
-        key = plan_key(version=VERSION, **c)
+        # the weights are in the key, so that plans of a weighted objective never stand for the protocol's
+        key = (
+            plan_key(version=VERSION, **c)
+            if self.weights is None
+            else plan_key(version=VERSION, weights=self.weights, **c)
+        )
         found = self._cache.get(key)
         if found is None:
             found = self._solve(c)
@@ -218,3 +255,12 @@ class DamHindsight:
 def hindsight(env: gym.Env[Any, Any]) -> DamHindsight:
     """Baseline factory: the non-causal hindsight planner (dynamic programming over a 2.5 mm level grid)."""
     return DamHindsight(env)
+
+
+def weighted_hindsight(env: gym.Env[Any, Any], weights: Sequence[float], seed: int | None = None) -> DamHindsight:
+    """Weight-conditioned factory: the hindsight planner of the weighted objective of ``gym4real/dam-mo-v0``.
+
+    ``weights`` (shortage, flooding) weigh the raw objectives; ``seed`` is accepted for the
+    ``factory(env, weights=w, seed=S)`` convention and unused (the planner is deterministic).
+    """
+    return DamHindsight(env, weights=weights)

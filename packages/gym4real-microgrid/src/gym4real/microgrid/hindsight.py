@@ -14,12 +14,19 @@ the power that takes the twin's actual SoC to the plan's.
 
 ``planned_objective`` is what the model promised for the kept plan, ``replayed_objective`` what the twin
 gave it (the env's score of the episode); ``history`` lists every iteration.
+
+Given ``weights`` over the objectives of ``gym4real/microgrid-mo-v0`` (trading, degradation:
+:mod:`gym4real.microgrid.multi_objective`), the planner plans, replays and keeps plans by the weighted
+objective instead, ``w_trading * trading + w_degradation * degradation`` hour by hour: the trading term of
+the model and the damage price are scaled by their objective's weight (:func:`weighted_hindsight`, the
+factory of the multi-objective upper reference front). Without weights (the default) nothing changes.
 """
 
 from __future__ import annotations
 
 import copy
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -29,6 +36,7 @@ import numpy as np
 from gym4real.core.errors import PolicyError
 from gym4real.microgrid.battery import KELVIN
 from gym4real.microgrid.env import MicrogridEnv
+from gym4real.microgrid.multi_objective import SPECS
 from gym4real.microgrid.tables import ParameterGrid
 
 #: SoC grid step of the dynamic programme. A coarser grid cannot store small surpluses: on households 371
@@ -95,13 +103,24 @@ class MicrogridHindsight:
         env: The microgrid env (wrapped or not), hourly decisions (``decision_interval`` 1).
         grid_step: SoC step of the dynamic programme's grid (anchored at the episode's initial SoC).
         iterations: At most this many plans per episode after the idle battery (fewer once settled).
+        weights: Plan the weighted objective of ``gym4real/microgrid-mo-v0`` (one non-negative weight per
+            objective: trading, degradation) instead of the protocol's; None: the protocol's.
 
     Raises:
         PolicyError: The env is not a MicrogridEnv with ``decision_interval`` 1, or numba is missing.
     """
 
-    def __init__(self, env: gym.Env[Any, Any], grid_step: float = GRID_STEP, iterations: int = ITERATIONS) -> None:
+    def __init__(
+        self,
+        env: gym.Env[Any, Any],
+        grid_step: float = GRID_STEP,
+        iterations: int = ITERATIONS,
+        weights: Sequence[float] | None = None,
+    ) -> None:
         base = env.unwrapped
+        owned = getattr(base, "env", None)  # the env a vector-reward variant (microgrid-mo-v0) owns
+        if not isinstance(base, MicrogridEnv) and owned is not None:
+            base = owned.unwrapped
         if not isinstance(base, MicrogridEnv):
             raise PolicyError(f"the microgrid hindsight planner needs a MicrogridEnv, not {type(base).__name__}")
         if base.config.decision_interval != 1:
@@ -119,7 +138,14 @@ class MicrogridHindsight:
             raise PolicyError(msg) from exc
         self._kernel = hindsight_kernel
         self.env = base
-        self._trade_weight = base._weights[0] * base._trading_scale
+        self.weights = None if weights is None else tuple(float(w) for w in weights)
+        # each objective's weight (1 and 1: the protocol's objective, trading + degradation; x * 1.0 is x)
+        of = {"trading": 1.0, "degradation": 1.0}
+        if weights is not None:
+            of = {c: w for c, w in SPECS[0].component_weights(weights).items() if c in of}
+        self._objective_weights = of
+        self._trade_weight = base._weights[0] * base._trading_scale * of["trading"]
+        self._degradation_weight = base._weights[1] * of["degradation"]
         self.grid_step = grid_step
         self.iterations = iterations
         self.targets: np.ndarray | None = None
@@ -176,7 +202,7 @@ class MicrogridHindsight:
         env = self.env
         a = env.battery.params.aging
         slope = a.alpha_sei * a.beta_sei * math.exp(-a.beta_sei * damage) + (1.0 - a.alpha_sei) * math.exp(-damage)
-        return env._weights[1] * env._deg_per_soh * slope
+        return self._degradation_weight * env._deg_per_soh * slope
 
     def _initial_cyclic_rate(self) -> float:
         """Damage per unit of SoC moved in full cycles of depth 0.5 (each moves the SoC by 1) at the reference."""
@@ -253,7 +279,7 @@ class MicrogridHindsight:
             path, m.socs, m.margin, m.ask, m.bid, m.dt, m.charge, m.table, m.temp_index, m.temp_weight,
             m.cal_rate, m.cal_soc, m.cyc_rate, m.cyc_soc,
         )  # fmt: skip
-        degradation = env._weights[1] * env._deg_per_soh * env.battery.params.aging.degradation(cal + cyc)
+        degradation = self._degradation_weight * env._deg_per_soh * env.battery.params.aging.degradation(cal + cyc)
         return self._trade_weight * trading - degradation
 
     def _calibrated_rate(self, replay: _Replay, rate: float) -> float:
@@ -278,6 +304,7 @@ class MicrogridHindsight:
         soc = np.empty(n + 1)
         soc[0] = sim.battery.soc
         objective = 0.0
+        w_trading, w_degradation = self._objective_weights["trading"], self._objective_weights["degradation"]
         k = 0
         for k in range(n):
             bat = sim.battery
@@ -286,7 +313,7 @@ class MicrogridHindsight:
             action = np.array([_tracking(sim, float(targets[k + 1]))], dtype=np.float32)
             _, _, terminated, truncated, info = sim.step(action)
             comps = info["reward_components"]
-            objective += comps["trading"] + comps["degradation"]
+            objective += w_trading * comps["trading"] + w_degradation * comps["degradation"]
             temperature[k] = 0.5 * (temp0 + bat.temperature)
             soc[k + 1] = bat.soc
             if terminated or truncated:
@@ -340,3 +367,12 @@ def _temperature_weights(grid: ParameterGrid, temp_c: np.ndarray) -> tuple[np.nd
 def hindsight(env: gym.Env[Any, Any]) -> MicrogridHindsight:
     """Baseline factory: the non-causal hindsight planner (knows the episode's demand, PV, prices, weather)."""
     return MicrogridHindsight(env)
+
+
+def weighted_hindsight(env: gym.Env[Any, Any], weights: Sequence[float], seed: int | None = None) -> MicrogridHindsight:
+    """Weight-conditioned factory: the hindsight planner of the weighted objective of ``gym4real/microgrid-mo-v0``.
+
+    ``weights`` (trading, degradation) weigh the raw objectives; ``seed`` is accepted for the
+    ``factory(env, weights=w, seed=S)`` convention and unused (the planner is deterministic).
+    """
+    return MicrogridHindsight(env, weights=weights)

@@ -15,6 +15,11 @@ The best schedule found is replayed from the start through a fresh copy, as are 
 ``planned_objective`` is the search's return of the kept schedule (restoring a copy re-starts EPANET's
 solver from other link flows, so it can differ from the replay in the last digits), ``replayed_objective``
 the env's score of it.
+
+Given ``weights`` over the objectives of ``gym4real/wds-mo-v0`` (dsr, overflow:
+:mod:`gym4real.wds.multi_objective`), the search, the replays and the choice of schedule score the weighted
+objective instead, ``w_dsr * dsr + w_overflow * overflow`` hour by hour (:func:`weighted_hindsight`, the
+factory of the multi-objective upper reference front). Without weights (the default) nothing changes.
 """
 
 from __future__ import annotations
@@ -31,6 +36,7 @@ from gym4real.core.policies import ConstantPolicy
 from gym4real.wds import engine as en
 from gym4real.wds.baselines import TankLevelRule
 from gym4real.wds.env import WDSEnv
+from gym4real.wds.multi_objective import SPECS
 
 #: Search nodes kept per hour.
 WIDTH = 8
@@ -56,13 +62,24 @@ class WDSHindsight:
         env: The WDS env (wrapped or not), fixed decision intervals, pumps switched by the agent.
         width: Search nodes kept per hour.
         resolution: Tank-level cell (m) within which nodes are merged.
+        weights: Plan the weighted objective of ``gym4real/wds-mo-v0`` (one non-negative weight per
+            objective: dsr, overflow) instead of the protocol's; None: the protocol's.
 
     Raises:
         PolicyError: The env is not a WDSEnv with fixed intervals and agent-switched pumps, or a bad argument.
     """
 
-    def __init__(self, env: gym.Env[Any, Any], width: int = WIDTH, resolution: float = RESOLUTION) -> None:
+    def __init__(
+        self,
+        env: gym.Env[Any, Any],
+        width: int = WIDTH,
+        resolution: float = RESOLUTION,
+        weights: Sequence[float] | None = None,
+    ) -> None:
         base = env.unwrapped
+        owned = getattr(base, "env", None)  # the env a vector-reward variant (wds-mo-v0) owns
+        if not isinstance(base, WDSEnv) and owned is not None:
+            base = owned.unwrapped
         if not isinstance(base, WDSEnv):
             raise PolicyError(f"the WDS hindsight planner needs a WDSEnv, not {type(base).__name__}")
         if not base._fixed or base.config.pump_control != "agent":
@@ -76,6 +93,8 @@ class WDSHindsight:
         self.env = base
         self.width = width
         self.resolution = resolution
+        self.weights = None if weights is None else tuple(float(w) for w in weights)
+        self._component_weights = None if weights is None else SPECS[0].component_weights(weights)
         self.schedule: tuple[int, ...] | None = None
         self.source = ""
         self.planned_objective = math.nan
@@ -137,7 +156,10 @@ class WDSHindsight:
         return self._copies[:n]
 
     def _objective(self, info: dict[str, Any]) -> float:
-        return float(sum(info["reward_components"].values()))
+        if self._component_weights is None:
+            return float(sum(info["reward_components"].values()))
+        of = self._component_weights
+        return float(sum(of.get(c, 0.0) * v for c, v in info["reward_components"].items()))
 
     def _search(self) -> tuple[tuple[int, ...], float]:
         """The beam search: the best schedule and its return in the search."""
@@ -224,3 +246,12 @@ def _restore(sim: WDSEnv, levels: np.ndarray) -> None:
 def hindsight(env: gym.Env[Any, Any]) -> WDSHindsight:
     """Baseline factory: the non-causal hindsight planner (knows the week's demand)."""
     return WDSHindsight(env)
+
+
+def weighted_hindsight(env: gym.Env[Any, Any], weights: Sequence[float], seed: int | None = None) -> WDSHindsight:
+    """Weight-conditioned factory: the hindsight planner of the weighted objective of ``gym4real/wds-mo-v0``.
+
+    ``weights`` (dsr, overflow) weigh the raw objectives; ``seed`` is accepted for the
+    ``factory(env, weights=w, seed=S)`` convention and unused (the planner is deterministic).
+    """
+    return WDSHindsight(env, weights=weights)
