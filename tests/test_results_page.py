@@ -411,3 +411,29 @@ def test_stand_in_sections_are_marked_and_say_how_they_differ_from_the_paper() -
     assert f"{100 * steps / paper:.1f} % of the {paper:,} of `ppo/paper`" in "; ".join(found)
     assert found[0].startswith("data: EUR/USD hourly") and found[-1].startswith("test: 68 episodes")
     assert differences(dam, pd.read_csv(results / "dam-v0-paper" / "episodes.csv")) == []
+
+
+@pytest.mark.parametrize(
+    ("section", "exact"),
+    [
+        ("dam-v0-paper", False),
+        ("elevator-v0-paper", True),
+        ("microgrid-v0-paper", False),
+        ("trading-v0-paper", True),
+        ("wds-v0-paper", False),
+    ],
+)
+def test_the_published_upper_reference_scores_at_least_every_baseline_and_agent(section: str, exact: bool) -> None:
+    """Issue 33: on every test episode where the planner is exact (trading, elevator), else on the IQM."""
+    from gym4real.bench import stats
+
+    episodes = pd.read_csv(ROOT / "docs" / "results" / section / "episodes.csv")
+    upper = episodes[episodes["policy"] == "hindsight"].set_index("episode")["objective"]
+    others = episodes[episodes["policy"] != "hindsight"]
+    assert len(upper) == others["episode"].nunique()  # every test episode of the section
+    if exact:
+        best = others.groupby("episode")["objective"].max()
+        assert (upper.reindex(best.index) >= best - 1e-9 * best.abs().clip(lower=1)).all()
+    else:
+        for (policy, seed), rows in others.groupby(["policy", "seed"], dropna=False):
+            assert stats.iqm(upper.to_numpy()) >= stats.iqm(rows["objective"].to_numpy()), (policy, seed)
