@@ -5,7 +5,9 @@ from __future__ import annotations
 import csv
 import itertools
 import math
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -76,19 +78,12 @@ def test_model_circuit_is_the_twins_at_rest() -> None:
                 )
 
 
-def test_dynamic_programme_is_the_brute_force_optimum_of_its_model() -> None:
-    """Every feasible grid path of six hours, scored by the model's equations written out here."""
+def _model_reward(env: Any, m: Any, trade_weight: float, price: float) -> Callable[[int, int, int], float | None]:
+    """The planner's model of hour ``t`` from grid point ``i`` to ``j``, its equations written out here: the
+    trading term times ``trade_weight`` less the damage at ``price``; None where the move is infeasible."""
     from gym4real.microgrid.hindsight_kernel import circuit
 
-    env = _afternoon(6)
-    planner = MicrogridHindsight(env, grid_step=0.005)
-    data = _episode_data(env)
-    assert (data["margin"] > 0).any() and (data["margin"] < 0).any()
-    idle = planner._replay(np.full(7, env.battery.soc))
-    model = planner._model(data, idle, planner._initial_cyclic_rate())
-    price = planner._damage_price(idle.damage)
-    p = env.battery.params
-    m, socs = model, model.socs
+    p, socs = env.battery.params, m.socs
 
     def reward(t: int, i: int, j: int) -> float | None:
         margin, ds = m.margin[t], socs[j] - socs[i]
@@ -102,21 +97,37 @@ def test_dynamic_programme_is_the_brute_force_optimum_of_its_model() -> None:
         traded = margin - power
         trading = m.dt / 3600.0 * traded * (m.ask[t] if traded < 0 else m.bid[t])
         damage = m.cal_rate[t] * m.cal_soc[i, j] + m.cyc_rate[t] * abs(ds) * m.cyc_soc[i, j]
-        return planner._trade_weight * trading - price * damage
+        return trade_weight * trading - price * damage
 
-    best, paths = -math.inf, 0
+    return reward
+
+
+def _path_values(m: Any, reward: Callable[[int, int, int], float | None]) -> list[float]:
+    """The value of every feasible grid path from the model's start over all its hours (brute force)."""
     frontier: list[tuple[tuple[int, ...], float]] = [((m.start,), 0.0)]
     for t in range(m.margin.size):
-        nxt = []
-        for path, value in frontier:
-            for j in range(socs.size):
-                r = reward(t, path[-1], j)
-                if r is not None:
-                    nxt.append(((*path, j), value + r))
-        frontier = nxt
-    for _, value in frontier:
-        best = max(best, value)
-        paths += 1
+        frontier = [
+            ((*path, j), value + r)
+            for path, value in frontier
+            for j in range(m.socs.size)
+            if (r := reward(t, path[-1], j)) is not None
+        ]
+    return [value for _, value in frontier]
+
+
+def test_dynamic_programme_is_the_brute_force_optimum_of_its_model() -> None:
+    """Every feasible grid path of six hours, scored by the model's equations written out here."""
+    env = _afternoon(6)
+    planner = MicrogridHindsight(env, grid_step=0.005)
+    data = _episode_data(env)
+    assert (data["margin"] > 0).any() and (data["margin"] < 0).any()
+    idle = planner._replay(np.full(7, env.battery.soc))
+    model = planner._model(data, idle, planner._initial_cyclic_rate())
+    price = planner._damage_price(idle.damage)
+    m, socs = model, model.socs
+    reward = _model_reward(env, model, planner._trade_weight, price)
+    values = _path_values(model, reward)
+    best, paths = max(values), len(values)
     assert paths > 100  # the charging hours offer real choices
     targets, _ = planner._solve(model, price)
     path = np.rint((targets - socs[0]) / planner.grid_step).astype(int)
@@ -188,8 +199,6 @@ def test_weighted_dynamic_programme_is_the_brute_force_optimum_of_its_weighted_m
 ) -> None:
     """Every feasible grid path of six hours, scored by the weighted model written out here: the trading term
     times the trading weight, the damage priced by the degradation weight."""
-    from gym4real.microgrid.hindsight_kernel import circuit
-
     env = _afternoon(6)
     planner = MicrogridHindsight(env, grid_step=0.005, weights=weights)
     data = _episode_data(env)
@@ -199,32 +208,9 @@ def test_weighted_dynamic_programme_is_the_brute_force_optimum_of_its_weighted_m
     base = MicrogridHindsight(env, grid_step=0.005)
     assert planner._trade_weight == weights[0] * base._trade_weight
     assert price == pytest.approx(weights[1] * base._damage_price(idle.damage), rel=1e-15)
-    p = env.battery.params
     m, socs = model, model.socs
-
-    def reward(t: int, i: int, j: int) -> float | None:
-        margin, ds = m.margin[t], socs[j] - socs[i]
-        current = ds * m.charge[t]
-        ocv, slope = circuit(m.table, m.temp_index[t], m.temp_weight[t], i, m.dt)
-        power = (ocv + slope * current) * current
-        if not (0.0 <= power / margin <= 1.0 if margin else j == i):
-            return None
-        if not p.current_min <= current <= p.current_max or current < -ocv / (2 * slope):
-            return None
-        traded = margin - power
-        trading = m.dt / 3600.0 * traded * (m.ask[t] if traded < 0 else m.bid[t])
-        damage = m.cal_rate[t] * m.cal_soc[i, j] + m.cyc_rate[t] * abs(ds) * m.cyc_soc[i, j]
-        return weights[0] * base._trade_weight * trading - price * damage
-
-    frontier: list[tuple[tuple[int, ...], float]] = [((m.start,), 0.0)]
-    for t in range(m.margin.size):
-        frontier = [
-            ((*path, j), value + r)
-            for path, value in frontier
-            for j in range(socs.size)
-            if (r := reward(t, path[-1], j)) is not None
-        ]
-    best = max(value for _, value in frontier)
+    reward = _model_reward(env, model, weights[0] * base._trade_weight, price)
+    best = max(_path_values(model, reward))
     targets, _ = planner._solve(model, price)
     path = np.rint((targets - socs[0]) / planner.grid_step).astype(int)
     dp_value = sum(reward(t, path[t], path[t + 1]) for t in range(m.margin.size))  # type: ignore[misc]
