@@ -441,12 +441,11 @@ def _layers() -> list[str]:
     return config["importlinter:contract:layers"]["layers"].split()
 
 
-def _group_of(module: str, layers: list[str]) -> str:
+def _group_of(module: str, layers: list[str], domains: set[str]) -> str:
     """The layer of a module, else ``domains`` (a domain's plugin) or ``beside`` (wrappers, integrations, ...)."""
     for layer in layers:
         if module == layer or module.startswith(layer + "."):
             return layer
-    domains = {gym4real.core.registry.domain_of(env_id) for env_id in gym4real.list_envs()}
     return "domains" if module.split(".")[1] in domains else "beside"
 
 
@@ -474,18 +473,17 @@ def architecture_figure(path: Path) -> Path:
     runner.whole_namespace()
     graph = grimp.build_graph("gym4real", cache_dir=None)
     layers = _layers()
-    groups = [*layers, "domains", "beside"]
-    members: dict[str, list[str]] = {g: [] for g in groups}
-    for module in sorted(graph.modules):
-        if module.count(".") >= 1:
-            members[_group_of(module, layers)].append(module)
+    domains = {gym4real.core.registry.domain_of(env_id) for env_id in gym4real.list_envs()}
+    group_of = {m: _group_of(m, layers, domains) for m in sorted(graph.modules) if m.count(".") >= 1}
+    members: dict[str, list[str]] = {g: [] for g in [*layers, "domains", "beside"]}
+    for module, group in group_of.items():
+        members[group].append(module)
     edges: dict[tuple[str, str], int] = {}
-    for module in graph.modules:
+    for module, group in group_of.items():
         for imported in graph.find_modules_directly_imported_by(module):
-            if imported.startswith("gym4real.") and module.count(".") >= 1:
-                pair = (_group_of(module, layers), _group_of(imported, layers))
-                if pair[0] != pair[1]:
-                    edges[pair] = edges.get(pair, 0) + 1
+            if imported in group_of and group_of[imported] != group:
+                pair = (group, group_of[imported])
+                edges[pair] = edges.get(pair, 0) + 1
     matplotlib.rcParams["svg.fonttype"] = "none"  # the names stay text in the SVG (searchable, selectable)
     fig, ax = plt.subplots(figsize=(12, 8))
     ax.set_axis_off()
