@@ -17,6 +17,7 @@ from gym4real.wrappers import (
     SensorDropout,
     challenge,
 )
+from gym4real.wrappers.multi_objective import scalar_env
 
 IDS = gym4real.list_envs(multi_objective=False)  # wrappers of scalar-reward envs
 
@@ -131,6 +132,17 @@ def test_multi_objective_ids_for_the_papers_morl_envs() -> None:
         if mo_id in gym.registry:
             env = gym.make(mo_id)
             assert env.unwrapped.reward_space.shape == (len(env.unwrapped.components),)
+
+
+
+def test_scalar_env_reaches_the_env_a_multi_objective_view_owns() -> None:
+    """Through a vector-reward id to the scalar env it owns (made with the scalar id's spec); a scalar id's own."""
+    pairs = [(i.replace("-v", "-mo-v"), i) for i in IDS if i.replace("-v", "-mo-v") in gym.registry]
+    assert pairs
+    for mo_id, scalar_id in pairs:
+        via_mo, direct = scalar_env(gym.make(mo_id)), scalar_env(gym.make(scalar_id))
+        assert not isinstance(via_mo, MultiObjective) and type(via_mo) is type(direct), mo_id
+        assert via_mo is via_mo.unwrapped and via_mo.spec is not None and via_mo.spec.id == scalar_id
 
 
 def _perturbable_ids() -> list[str]:

@@ -160,6 +160,14 @@ def test_the_weighted_plan_is_at_least_the_best_of_a_fine_brute_force_at_each_we
     assert found[(0.0, 1.0)][1] == 0.0 and found[(1.0, 0.0)][0] > brute[:, 0].max()  # beyond the grid's best
 
 
+def test_the_vector_reward_id_plans_into_the_scalar_ids_cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """dam-mo-v0's planner keys its cache on the scalar env it owns: the protocol's plans serve both ids."""
+    monkeypatch.setenv("GYM4REAL_CACHE_DIR", str(tmp_path))
+    scalar, vector = DamHindsight(gym.make(ENV, preset="test")), DamHindsight(gym.make(MO_ENV, preset="test"))
+    assert scalar._cache.path is not None and vector._cache.path == scalar._cache.path
+    assert ENV.replace("/", "_") in scalar._cache.path.name
+
+
 def test_weights_are_in_the_plan_cache_key(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Unit weights plan the same days as the protocol's objective, but under another key: neither is taken for
     the other."""

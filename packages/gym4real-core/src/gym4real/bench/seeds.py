@@ -145,11 +145,15 @@ def preset_source(env_id: str, algo: str, preset: str) -> Path | resources.abc.T
     return resources.files(package) / path
 
 
+#: A training preset's ``seeds``: the type both readers of a preset check (this module and :mod:`gym4real.rl.presets`).
+Seeds = list[Annotated[int, Field(ge=0)]]
+
+
 class _Seeds(BaseModel):
     """The one field of a training preset that measurement reads (:mod:`gym4real.rl.presets` checks the rest)."""
 
     model_config = ConfigDict(extra="ignore")
-    seeds: list[Annotated[int, Field(ge=0)]] = []
+    seeds: Seeds = []
 
 
 def _preset_seeds(env_id: str, algo: str, preset: str) -> list[int]:

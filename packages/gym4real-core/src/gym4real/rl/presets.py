@@ -10,7 +10,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from gym4real.bench.seeds import preset_source
+from gym4real.bench.seeds import Seeds, preset_source
 from gym4real.core.config import describe_validation_error, read_yaml
 from gym4real.core.errors import ConfigError
 from gym4real.core.registry import env_spec
@@ -42,7 +42,7 @@ class _Preset(BaseModel):
         None, description="Arguments of the validation env (default: `env_kwargs`)."
     )
     eval_episodes: Positive = Field(5, description="Episodes of each evaluation (consecutive seeds).")
-    seeds: list[Annotated[int, Field(ge=0)]] = Field(
+    seeds: Seeds = Field(
         default_factory=list, description="The paper's training seeds: the default seeds of `gym4real reproduce`."
     )
     eval_seed: Annotated[int, Field(ge=0)] = Field(

@@ -64,3 +64,13 @@ class MultiObjective(gym.Env[Any, Any]):
     def close(self) -> None:
         """Close the owned environment."""
         self.env.close()
+
+
+def scalar_env(env: gym.Env[Any, Any]) -> gym.Env[Any, Any]:
+    """The unwrapped scalar-reward env behind ``env``: through a :class:`MultiObjective` view to the env it owns.
+
+    A planner or any code that needs the domain's own env class calls this on what ``gymnasium.make`` returned,
+    whether the id was the scalar one (``gym4real/dam-v0``) or its vector-reward variant (``gym4real/dam-mo-v0``).
+    """
+    base = env.unwrapped
+    return base.env.unwrapped if isinstance(base, MultiObjective) else base

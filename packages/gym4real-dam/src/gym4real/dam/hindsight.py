@@ -52,6 +52,7 @@ from gym4real.core.errors import ConfigError
 from gym4real.dam.env import DamEnv
 from gym4real.dam.lake import SECONDS_PER_DAY
 from gym4real.dam.multi_objective import SPECS
+from gym4real.wrappers.multi_objective import scalar_env
 
 #: The planner's version in its cache keys: bump it when a change alters the plans.
 VERSION = "dam-dp-1"
@@ -89,17 +90,14 @@ class DamHindsight:
     ) -> None:
         if not (math.isfinite(step) and step > 0):
             raise ConfigError(f"hindsight `step` must be a positive grid spacing in m, not {step}")
-        owned = getattr(env.unwrapped, "env", None)  # the env a vector-reward variant (dam-mo-v0) owns
-        if not isinstance(env.unwrapped, DamEnv) and owned is not None:
-            env = owned
-        unwrapped = env.unwrapped
+        unwrapped = scalar_env(env)  # dam-mo-v0 included
         if not isinstance(unwrapped, DamEnv):
             raise ConfigError(f"the dam's hindsight planner needs a DamEnv, not {type(unwrapped).__name__}")
         self.env: DamEnv = unwrapped
         self.step = float(step)
         self.weights = None if weights is None else tuple(float(w) for w in weights)
         self._component_weights = None if weights is None else SPECS[0].component_weights(weights)
-        self._cache: PlanCache = plan_cache(env, VERSION) if cache else PlanCache(None)
+        self._cache: PlanCache = plan_cache(self.env, VERSION) if cache else PlanCache(None)
         self._plan: list[float] = []
         self.planned_objectives: list[float] = []
         self.forward_objectives: list[float] = []

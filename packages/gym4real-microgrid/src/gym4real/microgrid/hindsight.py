@@ -38,6 +38,7 @@ from gym4real.microgrid.battery import KELVIN
 from gym4real.microgrid.env import MicrogridEnv
 from gym4real.microgrid.multi_objective import SPECS
 from gym4real.microgrid.tables import ParameterGrid
+from gym4real.wrappers.multi_objective import scalar_env
 
 #: SoC grid step of the dynamic programme. A coarser grid cannot store small surpluses: on households 371
 #: and 376, steps 0.005 / 0.0025 / 0.001 / 0.0005 score -150.6 / -143.7 / -139.7 / -138.2 EUR and
@@ -117,10 +118,7 @@ class MicrogridHindsight:
         iterations: int = ITERATIONS,
         weights: Sequence[float] | None = None,
     ) -> None:
-        base = env.unwrapped
-        owned = getattr(base, "env", None)  # the env a vector-reward variant (microgrid-mo-v0) owns
-        if not isinstance(base, MicrogridEnv) and owned is not None:
-            base = owned.unwrapped
+        base = scalar_env(env)  # microgrid-mo-v0 included
         if not isinstance(base, MicrogridEnv):
             raise PolicyError(f"the microgrid hindsight planner needs a MicrogridEnv, not {type(base).__name__}")
         if base.config.decision_interval != 1:

@@ -37,6 +37,7 @@ from gym4real.wds import engine as en
 from gym4real.wds.baselines import TankLevelRule
 from gym4real.wds.env import WDSEnv
 from gym4real.wds.multi_objective import SPECS
+from gym4real.wrappers.multi_objective import scalar_env
 
 #: Search nodes kept per hour.
 WIDTH = 8
@@ -76,10 +77,7 @@ class WDSHindsight:
         resolution: float = RESOLUTION,
         weights: Sequence[float] | None = None,
     ) -> None:
-        base = env.unwrapped
-        owned = getattr(base, "env", None)  # the env a vector-reward variant (wds-mo-v0) owns
-        if not isinstance(base, WDSEnv) and owned is not None:
-            base = owned.unwrapped
+        base = scalar_env(env)  # wds-mo-v0 included
         if not isinstance(base, WDSEnv):
             raise PolicyError(f"the WDS hindsight planner needs a WDSEnv, not {type(base).__name__}")
         if not base._fixed or base.config.pump_control != "agent":
