@@ -355,6 +355,9 @@ def test_reproduce_plan_prints_the_runs_and_the_wall_time_and_trains_nothing(
     assert "elevator-v0 qlearning/paper seed 42" in text and "elevator-v0 sarsa/paper seed 1" in text
     costs = [e.cpu_s for e in estimate(plan("gym4real/elevator-v0", "paper", 3, out), out) if e.cpu_s is not None]
     assert "6 runs, 0 of unknown cost" in text and f"with 2 job(s): {duration(wall_time(costs, 2))}," in text
+    # the longest run bounds the training's wall time from below; the tests are not estimated
+    assert f"training wall time with 2 job(s): {duration(wall_time(costs, 2))}, no less than its longest run (" in text
+    assert f": {duration(max(costs))}); each environment's tests follow its runs (not estimated)" in text
     assert not out.exists()
     with pytest.raises(SystemExit):
         main(["reproduce", "gym4real/elevator-v0", "--jobs", "0"])

@@ -134,7 +134,6 @@ def test_multi_objective_ids_for_the_papers_morl_envs() -> None:
             assert env.unwrapped.reward_space.shape == (len(env.unwrapped.components),)
 
 
-
 def test_scalar_env_reaches_the_env_a_multi_objective_view_owns() -> None:
     """Through a vector-reward id to the scalar env it owns (made with the scalar id's spec); a scalar id's own."""
     pairs = [(i.replace("-v", "-mo-v"), i) for i in IDS if i.replace("-v", "-mo-v") in gym.registry]

@@ -138,8 +138,8 @@ def plan_report(env_ids: Sequence[str], budget: str, n_seeds: SeedRequest, out: 
     if cpu:
         longest = max(known, key=lambda e: e.cpu_s or 0.0)
         lines.append(
-            f"expected wall time with {jobs} job(s): {duration(wall_time(cpu, jobs))}, then the tests of each "
-            f"environment (at least the longest single run, {slug(longest.item.env_id)} {longest.item.algo} "
-            f"seed {longest.item.seed}: {duration(max(cpu))})"
+            f"expected training wall time with {jobs} job(s): {duration(wall_time(cpu, jobs))}, no less than its "
+            f"longest run ({slug(longest.item.env_id)} {longest.item.algo} seed {longest.item.seed}: "
+            f"{duration(max(cpu))}); each environment's tests follow its runs (not estimated)"
         )
     return "\n".join(lines)
