@@ -71,6 +71,9 @@ def scalar_env(env: gym.Env[Any, Any]) -> gym.Env[Any, Any]:
 
     A planner or any code that needs the domain's own env class calls this on what ``gymnasium.make`` returned,
     whether the id was the scalar one (``gym4real/dam-v0``) or its vector-reward variant (``gym4real/dam-mo-v0``).
+
+    Args:
+        env: An environment, wrapped or not.
     """
     base = env.unwrapped
     return base.env.unwrapped if isinstance(base, MultiObjective) else base
