@@ -31,8 +31,8 @@ def _per_unit(minutes: float, runs: int, units: int) -> float:
 
 
 #: Seconds of one CPU per budget unit (timestep or episode), validation included: the paper-budget runs of
-#: docs/results (code e4bd47b, two runs at a time on a 2-core machine, picking-v1 partly three; minutes
-#: summed over the seeds).
+#: docs/results (code e4bd47b, microgrid 503cc61; two runs at a time on a 2-core machine, picking-v1 partly
+#: three; minutes summed over the seeds).
 RECORDED_S_PER_UNIT = {
     ("gym4real/dam-v0", "ppo"): _per_unit(28.7, 5, 200_000),
     ("gym4real/elevator-v0", "qlearning"): _per_unit(9.3, 5, 100_000),
@@ -43,7 +43,7 @@ RECORDED_S_PER_UNIT = {
     ("gym4real/robofeeder-picking-v0", "ppo"): _per_unit(74.3, 5, 15_000),
     ("gym4real/robofeeder-planning-v0", "ppo"): _per_unit(43.7, 5, 10_000),
     ("gym4real/robofeeder-picking-v1", "ppo"): _per_unit(358.9, 5, 15_000),
-    ("gym4real/microgrid-v0", "ppo"): _per_unit(64.0, 1, 28_051_200),
+    ("gym4real/microgrid-v0", "ppo"): _per_unit(371.4, 5, 28_051_200),
 }
 
 
