@@ -8,6 +8,7 @@ that seed's rows of ``episodes.csv`` record (the CSV round-trips floats).
 from __future__ import annotations
 
 import json
+import shlex
 from pathlib import Path
 
 import pandas as pd
@@ -21,20 +22,28 @@ RESULTS = Path(__file__).parents[1] / "docs" / "results"
 @pytest.mark.parametrize(
     ("section", "algo", "seed"), [("dam-v0-paper", "ppo", 0), ("dam-v0-paper", "ppo", 123), ("wds-v0-paper", "dqn", 42)]
 )
-def test_evaluating_a_published_model_reproduces_its_published_test_episodes(
-    section: str, algo: str, seed: int
+def test_the_listed_evaluate_command_reproduces_the_published_model_s_test_episodes(
+    section: str, algo: str, seed: int, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    """``models.json``'s command, run as written in the page folder, scores that seed's rows of ``episodes.csv``
+    (it said ``--seeds 0``, a count the CLI refuses; ``--seeds 1`` evaluated the plan's first seed instead)."""
     pytest.importorskip("stable_baselines3")
-    from gym4real.bench.evaluate import evaluate
+    from gym4real.cli import main
 
     folder = RESULTS / section
-    report = json.loads((folder / "report.json").read_text())
     model = next(m for m in json.loads((folder / "models.json").read_text()) if (m["algo"], m["seed"]) == (algo, seed))
     assert model["published"] and model["bytes"] <= MAX_BYTES
     for file in model["files"]:
         assert sha256_of(folder / Path(model["path"]).parent / file["name"]) == file["sha256"], file["name"]
-    result = evaluate({"published": f"{algo}:{folder / model['path']}"}, [report["env_id"]], seeds=[seed])
-    mine = result.envs[report["env_id"]].episodes.sort_values("episode").reset_index(drop=True)
+    command, where = model["evaluate"].split(" (")
+    assert where == "in the page folder)"
+    argv = shlex.split(command)
+    assert argv[:2] == ["gym4real", "evaluate"]
+    monkeypatch.chdir(RESULTS)
+    assert main([*argv[1:], "--out", str(tmp_path)]) == 0
+    mine = pd.read_csv(tmp_path / "agent_episodes.csv")
+    assert set(mine["seed"]) == {seed}
+    mine = mine.sort_values("episode").reset_index(drop=True)
     published = pd.read_csv(folder / "episodes.csv")
     theirs = published[(published["policy"] == algo) & (published["seed"] == seed)].sort_values("episode")
     assert len(theirs) == len(mine) > 0

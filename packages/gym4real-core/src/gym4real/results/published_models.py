@@ -85,7 +85,7 @@ def publish_models(runs: list[TrainingRun], section: Path, budget: str) -> list[
             path = f"{section.name}/{FOLDER}/{name}/{run.model_path.name}"
             entry["path"] = f"{FOLDER}/{name}/{run.model_path.name}"
             entry["evaluate"] = (
-                f"gym4real evaluate published-{run.algo}={run.algo}:{path} --envs {run.env_id} --seeds {run.seed} "
+                f"gym4real evaluate published-{run.algo}={run.algo}:{path} --envs {run.env_id} --seeds {run.seed}, "
                 "(in the page folder)"
             )
         else:
