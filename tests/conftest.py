@@ -5,13 +5,16 @@ from __future__ import annotations
 import importlib
 import importlib.util
 import os
+import shlex
 import sys
 import textwrap
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from types import ModuleType
+from typing import Any
 
 import importlib_metadata
+import pandas as pd
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -60,6 +63,25 @@ def plugin_source() -> Callable[..., str]:
     :func:`fake_plugins`: ``declaration`` (default: the current ``plugin_api``; ``""`` declares none), a
     hook registering ``env_ids`` (each made by ``entry_point``, CartPole by default), then ``body``."""
     return _plugin_source
+
+
+@pytest.fixture
+def listed_evaluate(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Callable[[dict[str, Any], Path], pd.DataFrame]:
+    """``listed_evaluate(model, page)``: run the ``gym4real evaluate`` command that ``models.json`` lists for a
+    published ``model``, as written, in the ``page`` folder (with ``--out`` in tmp_path); its agent's episodes."""
+    from gym4real.cli import main
+
+    def run(model: dict[str, Any], page: Path) -> pd.DataFrame:
+        command, where = model["evaluate"].split(" (")
+        assert where == "in the page folder)"
+        argv = shlex.split(command)
+        assert argv[:2] == ["gym4real", "evaluate"]
+        out = tmp_path / f"evaluate-{model['algo']}-seed{model['seed']}"
+        monkeypatch.chdir(page)
+        assert main([*argv[1:], "--out", str(out)]) == 0
+        return pd.read_csv(out / "agent_episodes.csv")
+
+    return run
 
 
 class FakeDistribution(importlib_metadata.Distribution):

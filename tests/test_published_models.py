@@ -8,8 +8,9 @@ that seed's rows of ``episodes.csv`` record (the CSV round-trips floats).
 from __future__ import annotations
 
 import json
-import shlex
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 import pytest
@@ -23,25 +24,17 @@ RESULTS = Path(__file__).parents[1] / "docs" / "results"
     ("section", "algo", "seed"), [("dam-v0-paper", "ppo", 0), ("dam-v0-paper", "ppo", 123), ("wds-v0-paper", "dqn", 42)]
 )
 def test_the_listed_evaluate_command_reproduces_the_published_model_s_test_episodes(
-    section: str, algo: str, seed: int, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    section: str, algo: str, seed: int, listed_evaluate: Callable[[dict[str, Any], Path], pd.DataFrame]
 ) -> None:
     """``models.json``'s command, run as written in the page folder, scores that seed's rows of ``episodes.csv``
     (it said ``--seeds 0``, a count the CLI refuses; ``--seeds 1`` evaluated the plan's first seed instead)."""
     pytest.importorskip("stable_baselines3")
-    from gym4real.cli import main
-
     folder = RESULTS / section
     model = next(m for m in json.loads((folder / "models.json").read_text()) if (m["algo"], m["seed"]) == (algo, seed))
     assert model["published"] and model["bytes"] <= MAX_BYTES
     for file in model["files"]:
         assert sha256_of(folder / Path(model["path"]).parent / file["name"]) == file["sha256"], file["name"]
-    command, where = model["evaluate"].split(" (")
-    assert where == "in the page folder)"
-    argv = shlex.split(command)
-    assert argv[:2] == ["gym4real", "evaluate"]
-    monkeypatch.chdir(RESULTS)
-    assert main([*argv[1:], "--out", str(tmp_path)]) == 0
-    mine = pd.read_csv(tmp_path / "agent_episodes.csv")
+    mine = listed_evaluate(model, RESULTS)
     assert set(mine["seed"]) == {seed}
     mine = mine.sort_values("episode").reset_index(drop=True)
     published = pd.read_csv(folder / "episodes.csv")

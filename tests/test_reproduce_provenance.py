@@ -7,7 +7,9 @@ import os
 import shutil
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -98,9 +100,9 @@ def test_every_damaged_run_file_is_named_with_its_run(tmp_path: Path, name: str,
     assert _snapshot(run) == before
 
 
-def test_a_section_lists_and_publishes_its_models_and_evaluate_reruns_them(elevator_quick: Path) -> None:
-    from gym4real.bench.evaluate import evaluate
-
+def test_a_section_lists_and_publishes_its_models_and_evaluate_reruns_them(
+    elevator_quick: Path, listed_evaluate: Callable[[dict[str, Any], Path], pd.DataFrame]
+) -> None:
     section = elevator_quick / "elevator-v0-quick"
     listing = json.loads((section / "models.json").read_text())
     assert [(m["algo"], m["seed"], m["published"]) for m in listing] == [("qlearning", 42, True), ("sarsa", 42, True)]
@@ -110,8 +112,9 @@ def test_a_section_lists_and_publishes_its_models_and_evaluate_reruns_them(eleva
         assert [f["sha256"] for f in model["files"]] == [sha256_of(path)]
         trained = elevator_quick / "elevator-v0" / "quick" / "runs" / model["algo"] / "seed42" / "qtable.npz"
         assert path.read_bytes() == trained.read_bytes()
-        result = evaluate({"published": f"{model['algo']}:{path}"}, ["gym4real/elevator-v0"], seeds=[42])
-        mine = result.envs["gym4real/elevator-v0"].episodes.sort_values("episode")
+        mine = listed_evaluate(model, elevator_quick)  # the command as models.json lists it
+        assert set(mine["seed"]) == {42}
+        mine = mine.sort_values("episode")
         theirs = episodes[(episodes["policy"] == model["algo"]) & (episodes["seed"] == 42)].sort_values("episode")
         assert mine["objective"].tolist() == theirs["objective"].tolist()  # exactly, episode by episode
     manifest = json.loads((elevator_quick / "manifest.json").read_text())

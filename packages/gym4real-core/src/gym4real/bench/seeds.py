@@ -168,4 +168,9 @@ def seeds_flag(env_id: str, budget: str, run_seeds: Sequence[int]) -> str:
     """The ``--seeds`` value that asks for ``run_seeds`` again: their number if they are the plan's first, else them."""
     if list(run_seeds) == seeds(env_id, budget, len(run_seeds)):
         return str(len(run_seeds))
+    return listed_seeds_flag(run_seeds)
+
+
+def listed_seeds_flag(run_seeds: Sequence[int]) -> str:
+    """The ``--seeds`` value that names exactly ``run_seeds`` (one seed S: ``S,``, which is not a count)."""
     return ",".join(map(str, run_seeds)) + ("," if len(run_seeds) == 1 else "")

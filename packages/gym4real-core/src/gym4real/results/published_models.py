@@ -17,6 +17,7 @@ import shutil
 from pathlib import Path
 from typing import Any
 
+from gym4real.bench.seeds import listed_seeds_flag
 from gym4real.core.registry import slug
 from gym4real.rl.train import TrainingRun
 
@@ -85,8 +86,8 @@ def publish_models(runs: list[TrainingRun], section: Path, budget: str) -> list[
             path = f"{section.name}/{FOLDER}/{name}/{run.model_path.name}"
             entry["path"] = f"{FOLDER}/{name}/{run.model_path.name}"
             entry["evaluate"] = (
-                f"gym4real evaluate published-{run.algo}={run.algo}:{path} --envs {run.env_id} --seeds {run.seed}, "
-                "(in the page folder)"
+                f"gym4real evaluate published-{run.algo}={run.algo}:{path} --envs {run.env_id} "
+                f"--seeds {listed_seeds_flag([run.seed])} (in the page folder)"
             )
         else:
             entry["why_not_published"] = f"{size / 2**20:.1f} MiB, over the {MAX_BYTES // 2**20} MiB limit"
