@@ -4,7 +4,9 @@ the ``train`` preset uses."""
 from __future__ import annotations
 
 import json
+import random
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -12,7 +14,7 @@ import pytest
 
 from gym4real.core import datasets
 from gym4real.core.datasets import sha256_of
-from gym4real.core.errors import DataFileError
+from gym4real.core.errors import DataFileError, Gym4RealError
 from gym4real.microgrid import standin
 from gym4real.microgrid.env import MicrogridEnv
 
@@ -144,40 +146,56 @@ def test_synthesize_without_the_load_model_says_how_to_install_it_before_anythin
     assert not (tmp_path / "cache").exists()  # nothing written
 
 
-def test_synthesize_states_the_expected_time_of_the_requested_households(
+def test_synthesize_says_what_it_writes_and_its_expected_time_then_a_short_progress_log(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     from gym4real.cli import main
-    from gym4real.microgrid.data import SECONDS_PER_HOUSEHOLD
 
     written: list[tuple[int, int]] = []
 
-    def synthesize(out: Path, households: int, jobs: int, **_: object) -> Path:  # the model itself is slow
+    def synthesize(out: Path, households: int, jobs: int, progress: Any, **_: object) -> Path:
         written.append((households, jobs))
+        for done in range(1, households + 1):
+            progress(done, households)
+        out.parent.mkdir(parents=True)
+        out.write_text("stand-in")
         return out
 
     monkeypatch.setenv("GYM4REAL_CACHE_DIR", str(tmp_path / "cache"))
     monkeypatch.setattr(standin, "check_tools", lambda: None)
     monkeypatch.setattr(standin, "synthesize", synthesize)
-    assert main(["data", "synthesize", "microgrid", "--households", "40", "--jobs", "2", "--quiet"]) == 0
+    assert main(["data", "synthesize", "microgrid", "--households", "40", "--jobs", "2"]) == 0
     assert written == [(40, 2)]
-    minutes = 40 / 2 * SECONDS_PER_HOUSEHOLD / 60  # 20 households per job
-    assert f"synthesizing 40 households of microgrid with 2 job(s): about {minutes:.0f} min" in capsys.readouterr().err
+    first, *lines = capsys.readouterr().err.splitlines()
+    assert first.startswith(f"writing {standin.DESCRIPTION} of microgrid to {tmp_path / 'cache' / standin.PATH}: ")
+    assert f"40 households with 2 worker process(es), {standin.expected_time(40, 2)}" in first
+    # not a terminal: a line after the first household and at each tenth, not one per household (nor a
+    # bar's redraws)
+    expected = [f"synthesize microgrid: {n}/40" for n in [1, *range(4, 41, 4)]]
+    assert [line.split(" (")[0] for line in lines] == expected
+
+
+def test_the_expected_time_counts_the_households_of_the_busiest_worker() -> None:
+    from gym4real.microgrid.data import SECONDS_OVERHEAD, SECONDS_PER_HOUSEHOLD
+
+    assert standin.expected_time(40, 2).startswith(f"about {SECONDS_OVERHEAD + 20 * SECONDS_PER_HOUSEHOLD:.0f} s")
+    seconds = SECONDS_OVERHEAD + standin.HOUSEHOLDS * SECONDS_PER_HOUSEHOLD
+    assert standin.expected_time(standin.HOUSEHOLDS, 1).startswith(f"about {seconds / 60:.0f} min")
+    assert "measured" in standin.expected_time()
 
 
 def test_reproduce_without_either_training_file_names_the_command_that_writes_the_stand_in_and_its_time(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     pytest.importorskip("stable_baselines3")
-    from gym4real.microgrid.data import SECONDS_PER_HOUSEHOLD
+    from gym4real.microgrid.data import synthesis_time
     from gym4real.results.reproduce import reproduce
 
     monkeypatch.setenv("GYM4REAL_CACHE_DIR", str(tmp_path / "cache"))
     text = reproduce(["gym4real/microgrid-v0"], "paper", 1, tmp_path / "out")
     (line,) = [line for line in text.splitlines() if line.startswith("== gym4real/microgrid-v0")]
-    minutes = standin.HOUSEHOLDS * SECONDS_PER_HOUSEHOLD / 60
     assert "not run" in line and "`gym4real data synthesize microgrid`" in line
-    assert f"about {minutes:.0f} min for the {standin.HOUSEHOLDS} households with one job" in line
+    assert f"({synthesis_time()} for the {standin.HOUSEHOLDS} households on one core" in line
 
 
 def test_the_fit_figure_is_drawn_from_the_two_files(tmp_path: Path) -> None:
@@ -207,9 +225,9 @@ def test_household_sizes_follow_the_istat_shares() -> None:
         assert abs(np.mean(sizes == size) - share) < 0.1
 
 
-@pytest.mark.slow
 def test_a_synthesized_file_has_the_real_layout_its_calibration_and_is_reproducible(tmp_path: Path) -> None:
     pytest.importorskip("richardsonpy")
+    pytest.importorskip("numba")
     path = standin.synthesize(tmp_path / "profiles_train_standin.csv", households=1, seed=7)
     frame = pd.read_csv(path)
     # the layout of profiles_test.csv: one column per household (W), then delta_time (s)
@@ -232,3 +250,122 @@ def test_a_synthesized_file_has_the_real_layout_its_calibration_and_is_reproduci
     assert np.array_equal(standin.household(0, 7), np.load(path.with_name(".profiles_train_standin-seed7") / "0.npy"))
     hours = power.reshape(365, 24).mean(axis=0)
     assert hours[18:22].mean() > hours[2:5].mean()  # an evening peak above the night's base load
+
+
+def test_the_compiled_generator_draws_pythons_random_stream_bit_for_bit() -> None:
+    pytest.importorskip("numba")
+    from gym4real.microgrid import standin_kernel
+
+    python = random.Random(2015 * 1000 + 7)
+    python.gauss(0.0, 1.0)  # a normal deviate is pending: the compiled one starts with it
+    words, cached = standin_kernel.random_state(python.getstate())
+    for k in range(3000):  # several refills of the 624 state words
+        if k % 3:
+            assert standin_kernel.random_float(words) == python.random()
+        else:
+            assert standin_kernel.gauss(words, cached, 60.0, 10.0) == python.gauss(60.0, 10.0)
+    assert standin_kernel.random_state(python.getstate())[0].tolist() == words.tolist()
+
+
+def _richardsonpy_days(index: int, seed: int, days: int) -> np.ndarray:
+    """The first ``days`` days of a household as richardsonpy computes them, one ``power_sim`` a day (the oracle)."""
+    import richardsonpy.classes.appliance as appliance
+    import richardsonpy.classes.lighting as lighting
+    import richardsonpy.classes.occupancy as occupancy
+    import richardsonpy.classes.stochastic_el_load_wrapper as wrapper
+    import richardsonpy.functions.change_resolution as resolution
+    import richardsonpy.functions.load_radiation as radiation
+
+    inputs = Path(occupancy.__file__).parents[1] / "inputs"
+    size = standin.household_size(index, seed)
+    random.seed(seed * 1000 + index)
+    occupants = occupancy.Occupancy(number_occupants=size, initial_day=standin.FIRST_WEEKDAY).occupancy
+    annual = 0.91 * standin.annual_targets()[size]  # ElectricLoad's appliance share (lighting is 9 %)
+    appliances = appliance.Appliances(
+        str(inputs / "Appliances.csv"), annual, randomize_appliances=True, prev_heat_dev=True
+    )
+    profile = wrapper.ElectricityProfile(appliances, lighting.load_lighting_profile(str(inputs / "LightBulbs.csv")))
+    direct, diffuse = radiation.get_rad_from_try_path()
+    irradiance = resolution.change_resolution(direct, 3600, 60) + resolution.change_resolution(diffuse, 3600, 60)
+    out = []
+    for day in range(days):
+        minutes = np.interp(np.arange(1440), 60 * np.arange(1440), irradiance[1440 * day : 1440 * (day + 1)])
+        weekend = (day + standin.FIRST_WEEKDAY) % 7 in (0, 6)
+        total, _, _ = profile.power_sim(minutes, weekend, day, occupants[144 * day : 144 * (day + 1)])
+        out.append(total)
+    return np.concatenate(out)
+
+
+@pytest.mark.parametrize("index", [1, 8])  # five members and one (seed 2015)
+def test_compiled_households_are_richardsonpys_minute_by_minute_bit_for_bit(index: int) -> None:
+    pytest.importorskip("richardsonpy")
+    pytest.importorskip("numba")
+    days = 9  # a weekend and both weekday kinds of start
+    reference = _richardsonpy_days(index, standin.SEED, days)
+    compiled = standin.household_minutes(index, standin.SEED, days=days)
+    assert compiled.shape == (days * 1440,)
+    assert np.array_equal(compiled, reference)
+    assert compiled.max() > 1000  # an appliance ran: not an empty day that any code would match
+
+
+@pytest.mark.slow
+def test_a_compiled_household_year_is_richardsonpys_electric_load_bit_for_bit() -> None:
+    """The whole year against richardsonpy's ElectricLoad, as the published stand-in was first written."""
+    pytest.importorskip("richardsonpy")
+    pytest.importorskip("numba")
+    import richardsonpy.classes.electric_load as eload
+    import richardsonpy.classes.occupancy as occupancy
+    import richardsonpy.functions.change_resolution as resolution
+    import richardsonpy.functions.load_radiation as radiation
+
+    index, seed = 3, standin.SEED
+    size = standin.household_size(index, seed)
+    random.seed(seed * 1000 + index)
+    occupants = occupancy.Occupancy(number_occupants=size, initial_day=standin.FIRST_WEEKDAY)
+    direct, diffuse = radiation.get_rad_from_try_path()
+    load = eload.ElectricLoad(
+        occ_profile=occupants.occupancy,
+        total_nb_occ=size,
+        q_direct=resolution.change_resolution(direct, old_res=3600, new_res=60),
+        q_diffuse=resolution.change_resolution(diffuse, old_res=3600, new_res=60),
+        annual_demand=standin.annual_targets()[size],
+        is_sfh=False,
+        prev_heat_dev=True,
+        timestep=60,
+        initial_day=standin.FIRST_WEEKDAY,
+    )
+    reference = np.asarray(load.loadcurve, dtype=np.float64).reshape(standin.HOURS, 60).mean(axis=1)
+    assert np.array_equal(standin.household(index, seed), reference)
+
+
+def test_the_file_is_the_same_with_one_or_two_worker_processes(tmp_path: Path) -> None:
+    pytest.importorskip("richardsonpy")
+    pytest.importorskip("numba")
+    one = standin.synthesize(tmp_path / "one" / "standin.csv", households=3, seed=11, jobs=1)
+    done: list[int] = []
+    two = standin.synthesize(
+        tmp_path / "two" / "standin.csv", households=3, seed=11, jobs=2, progress=lambda d, _: done.append(d)
+    )
+    assert one.read_bytes() == two.read_bytes()
+    assert done == [1, 2, 3]
+    assert json.loads(two.with_suffix(".json").read_text())["sha256"] == sha256_of(one)
+
+
+def test_synthesize_without_numba_says_how_to_install_it(monkeypatch: pytest.MonkeyPatch) -> None:
+    import sys
+
+    pytest.importorskip("richardsonpy")
+    monkeypatch.setitem(sys.modules, "numba", None)  # not installed: its import fails
+    with pytest.raises(Gym4RealError, match=r"pip install 'gym4real-microgrid\[fast\]'"):
+        standin.check_tools()
+
+
+def test_the_published_stand_ins_hash_is_the_one_the_results_page_records() -> None:
+    manifest = json.loads((Path(__file__).parents[3] / "docs" / "results" / "manifest.json").read_text())
+    recorded = {
+        row["read_instead"]["sha256"]
+        for rows in manifest["data_files"].values()
+        for row in rows
+        if row.get("read_instead", {}).get("path") == standin.PATH
+    }
+    assert recorded == {standin.PUBLISHED["sha256"]}

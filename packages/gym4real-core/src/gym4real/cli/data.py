@@ -11,13 +11,14 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import time
 from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 from urllib.parse import urlsplit
 
-from gym4real.cli.common import command
+from gym4real.cli.common import command, jobs
 from gym4real.core import datasets
 from gym4real.core.errors import DataUnreachableError, Gym4RealError
 from gym4real.core.specs import DatasetSpec
@@ -195,26 +196,58 @@ def _synthesize(args: argparse.Namespace) -> None:
     kwargs = {k: getattr(args, k) for k in ("households", "seed") if getattr(args, k) is not None}
     module.check_tools()  # a missing tool is said before anything is drawn or written
     households = kwargs.get("households", module.HOUSEHOLDS)
+    out = cache_dir() / module.PATH
     print(
-        f"synthesizing {households} households of {domain} with {args.jobs} job(s): "
-        f"{module.expected_time(households, args.jobs)} (households already written are reused)",
+        f"writing {module.DESCRIPTION} of {domain} to {out}: {households} households with {args.jobs} worker "
+        f"process(es), {module.expected_time(households, args.jobs)} (households already written are reused)",
         file=sys.stderr,
     )
-    bar = None
-    if not args.quiet:
-        from tqdm.auto import tqdm
+    progress = None if args.quiet else SynthesisProgress(f"synthesize {domain}")
+    path = module.synthesize(out, jobs=args.jobs, progress=progress, **kwargs)
+    if progress is not None:
+        progress.close()
+    digest = datasets.sha256_of(path)
+    print(f"ok   {path} (SHA-256 {digest}; provenance in {path.with_suffix('.json').name})")
+    published = module.PUBLISHED
+    if (households, kwargs.get("seed", published["seed"])) == (published["households"], published["seed"]):
+        if digest == published["sha256"]:
+            print("     the published stand-in, byte for byte (the one docs/results' runs trained on)")
+        else:
+            print(
+                f"warning: the published stand-in's SHA-256 is {published['sha256']}: this file differs (another "
+                "version of richardsonpy or numpy?); runs trained on it are not comparable with docs/results'",
+                file=sys.stderr,
+            )
 
-        bar = tqdm(desc=f"synthesize {domain}", unit="household")
 
-    def progress(done: int, total: int) -> None:
-        if bar is not None:
-            bar.total = total
-            bar.update(done - bar.n)
+class SynthesisProgress:
+    """``progress(done, total)`` of a synthesis: a bar on a terminal, else a line at every tenth (a log stays short)."""
 
-    path = module.synthesize(cache_dir() / module.PATH, jobs=args.jobs, progress=progress, **kwargs)
-    if bar is not None:
-        bar.close()
-    print(f"ok   {path} (provenance and SHA-256 in {path.with_suffix('.json').name})")
+    def __init__(self, label: str) -> None:
+        self.label = label
+        self.start = time.perf_counter()
+        self.bar: Any = None
+        self.shown = -1
+        if sys.stderr.isatty():
+            from tqdm import tqdm
+
+            self.bar = tqdm(desc=label, unit="household")
+
+    def __call__(self, done: int, total: int) -> None:
+        """``done`` of ``total`` households are written."""
+        if self.bar is not None:
+            self.bar.total = total
+            self.bar.update(done - self.bar.n)
+            return
+        tenth = done * 10 // max(total, 1)
+        if tenth > self.shown:
+            self.shown = tenth
+            print(f"{self.label}: {done}/{total} ({time.perf_counter() - self.start:.0f} s)", file=sys.stderr)
+
+    def close(self) -> None:
+        """Close the bar (a line-by-line log needs nothing)."""
+        if self.bar is not None:
+            self.bar.close()
 
 
 def _fetch_years(args: argparse.Namespace) -> None:
@@ -247,5 +280,11 @@ def add(sub: Any) -> None:
     data.add_argument("--urls", action="store_true", help="add each file's path and upstream address to the table")
     data.add_argument("--households", type=int, default=None, help="synthesize: number of households (default 370)")
     data.add_argument("--seed", type=int, default=None, help="synthesize: seed of the stand-in (default: the domain's)")
-    data.add_argument("--jobs", type=int, default=1, help="synthesize: worker processes")
-    data.add_argument("--quiet", action="store_true", help="synthesize: no progress bar")
+    data.add_argument(
+        "--jobs",
+        type=jobs,
+        default="auto",
+        metavar="N|auto",
+        help="synthesize: worker processes (auto, the default: one per available core)",
+    )
+    data.add_argument("--quiet", action="store_true", help="synthesize: no progress output")

@@ -69,9 +69,10 @@ def standin_module(domain: str) -> Any:
     """``gym4real.<domain>.standin``, a domain's stand-in for data published nowhere we can reach, or None.
 
     Such a module has ``PATH`` (where the stand-in lies under a data folder), ``STANDS_IN_FOR`` (the
-    registered file it replaces), ``HOUSEHOLDS`` (the default count), ``synthesize(...)`` (``gym4real data
-    synthesize``), ``check_tools()`` (raises, naming what to install, before anything is written),
-    ``expected_time(households, jobs)`` (text) and ``status()``.
+    registered file it replaces), ``DESCRIPTION`` (what it is, in a few words), ``HOUSEHOLDS`` (the default
+    count), ``PUBLISHED`` (``households``, ``seed`` and ``sha256`` of the published stand-in),
+    ``synthesize(...)`` (``gym4real data synthesize``), ``check_tools()`` (raises, naming what to install,
+    before anything is written), ``expected_time(households, jobs)`` (text) and ``status()``.
     """
     import importlib
 

@@ -27,10 +27,13 @@ TRAIN_DEMAND = "demand/train"
 STAND_IN = "microgrid/demand/profiles_train_standin.csv"
 #: Households of the paper's training file (``profiles_train.csv``).
 PAPER_HOUSEHOLDS = 370
-#: Seconds to synthesize one stand-in household with one job on a core of its own (:mod:`gym4real.microgrid.standin`):
-#: its CPU time, 21.2 s measured for one household on a 2-core machine (richardsonpy 0.2.3; 23 s per household
-#: in a 370-household run with two jobs). A loaded machine takes longer: the job gets a share of a core.
-SECONDS_PER_HOUSEHOLD = 21.0
+#: CPU seconds of one stand-in household (:mod:`gym4real.microgrid.standin`, its days compiled):
+#: 0.42 s measured per household of a 370-household run on a 2-core machine (benchmarks/bench_standin.py;
+#: richardsonpy 0.2.3 alone took 21 s). A loaded machine takes longer: a job gets a share of a core.
+SECONDS_PER_HOUSEHOLD = 0.42
+#: Seconds of a synthesis beside its households: starting the workers and loading the compiled model
+#: (compiling it, about 10 s, the first time), then writing the CSV (measured on the same machine).
+SECONDS_OVERHEAD = 15.0
 
 
 class StandInWarning(UserWarning):
@@ -38,15 +41,15 @@ class StandInWarning(UserWarning):
 
 
 def synthesis_time(households: int = PAPER_HOUSEHOLDS, jobs: int = 1) -> str:
-    """``about 80 min``: the expected time of ``gym4real data synthesize microgrid`` for ``households``."""
-    seconds = -(-households // max(1, jobs)) * SECONDS_PER_HOUSEHOLD
+    """``about 3 min``: the expected time of ``gym4real data synthesize microgrid`` for ``households``."""
+    seconds = SECONDS_OVERHEAD + -(-households // max(1, jobs)) * SECONDS_PER_HOUSEHOLD
     return f"about {seconds:.0f} s" if seconds < 90 else f"about {seconds / 60:.0f} min"
 
 
 def _synthesize_command() -> str:
     return (
-        f"`gym4real data synthesize microgrid` ({synthesis_time()} for the {PAPER_HOUSEHOLDS} households with one "
-        f"job, less with `--jobs N`; `pip install richardsonpy` first)"
+        f"`gym4real data synthesize microgrid` ({synthesis_time()} for the {PAPER_HOUSEHOLDS} households on one "
+        "core, less on more; `pip install richardsonpy 'gym4real-microgrid[fast]'` first)"
     )
 
 
