@@ -369,3 +369,12 @@ def test_the_published_stand_ins_hash_is_the_one_the_results_page_records() -> N
         if row.get("read_instead", {}).get("path") == standin.PATH
     }
     assert recorded == {standin.PUBLISHED["sha256"]}
+
+
+def test_the_docs_quote_the_measured_time_of_the_command_on_two_cores() -> None:
+    from gym4real.microgrid.data import synthesis_time
+
+    root = Path(__file__).parents[3]
+    quoted = f"{synthesis_time(standin.HOUSEHOLDS, 2)} on 2 idle cores"
+    for page in (root / "README.md", root / "docs" / "microgrid-standin.md", Path(__file__).parents[1] / "README.md"):
+        assert quoted in " ".join(page.read_text(encoding="utf-8").split()), page.name

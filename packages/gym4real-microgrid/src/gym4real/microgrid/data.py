@@ -27,13 +27,14 @@ TRAIN_DEMAND = "demand/train"
 STAND_IN = "microgrid/demand/profiles_train_standin.csv"
 #: Households of the paper's training file (``profiles_train.csv``).
 PAPER_HOUSEHOLDS = 370
-#: CPU seconds of one stand-in household (:mod:`gym4real.microgrid.standin`, its days compiled):
-#: 0.42 s measured per household of a 370-household run on a 2-core machine (benchmarks/bench_standin.py;
-#: richardsonpy 0.2.3 alone took 21 s). A loaded machine takes longer: a job gets a share of a core.
+#: CPU seconds of one stand-in household (:mod:`gym4real.microgrid.standin`, its days compiled): 0.42 s,
+#: the median of 20 households on the 2-core development machine (``benchmarks/bench_standin.py``;
+#: richardsonpy alone took 21 s). A loaded machine takes longer: a job gets a share of a core.
 SECONDS_PER_HOUSEHOLD = 0.42
-#: Seconds of a synthesis beside its households: starting the workers and loading the compiled model
-#: (compiling it, about 10 s, the first time), then writing the CSV (measured on the same machine).
-SECONDS_OVERHEAD = 15.0
+#: Seconds of a synthesis beside its households, measured on the same machine: starting the command (1 s),
+#: loading the compiled model in each worker (1 s; compiling it takes 7 s more, the first time only) and
+#: writing the CSV of the 370 households (1.3 s).
+SECONDS_OVERHEAD = 4.0
 
 
 class StandInWarning(UserWarning):
@@ -43,7 +44,7 @@ class StandInWarning(UserWarning):
 def synthesis_time(households: int = PAPER_HOUSEHOLDS, jobs: int = 1) -> str:
     """``about 3 min``: the expected time of ``gym4real data synthesize microgrid`` for ``households``."""
     seconds = SECONDS_OVERHEAD + -(-households // max(1, jobs)) * SECONDS_PER_HOUSEHOLD
-    return f"about {seconds:.0f} s" if seconds < 90 else f"about {seconds / 60:.0f} min"
+    return f"about {seconds:.0f} s" if seconds < 120 else f"about {seconds / 60:.0f} min"
 
 
 def _synthesize_command() -> str:
