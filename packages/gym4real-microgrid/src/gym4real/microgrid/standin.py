@@ -122,7 +122,7 @@ def check_tools() -> None:
 def expected_time(households: int = HOUSEHOLDS, jobs: int = 1) -> str:
     """How long :func:`synthesize` takes for ``households`` with ``jobs`` worker processes, and on what it rests.
 
-    ``about 93 s on idle cores (measured: 0.42 s of CPU per household, 15 s to start and write the file)``.
+    ``about 82 s on idle cores (measured: 0.42 s of CPU per household, 4 s to start and write the file)``.
     """
     return (
         f"{synthesis_time(households, jobs)} on idle cores (measured: {SECONDS_PER_HOUSEHOLD} s of CPU per "
