@@ -101,7 +101,7 @@ def reproduce_stale(
     return "\n".join(lines)
 
 
-def data_fix(name: str, recorded: object) -> str:
+def _data_fix(name: str, recorded: object) -> str:
     """Why a data file that a section read (its recorded SHA-256) is missing here, how to bring it, at what cost.
 
     A section that read a domain's synthetic stand-in (``gym4real data synthesize``) needs the stand-in; one
@@ -132,7 +132,7 @@ def _not_checkable(folder: Path, missing: list[str], unavailable: list[str]) -> 
     if unavailable:
         return "; ".join(unavailable)
     recorded = json.loads((folder / "report.json").read_text(encoding="utf-8")).get("fingerprints", {}).get("data", {})
-    return "; ".join(data_fix(name, recorded.get(name)) for name in missing) + "; then check again"
+    return "; ".join(_data_fix(name, recorded.get(name)) for name in missing) + "; then check again"
 
 
 @dataclass
