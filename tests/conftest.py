@@ -38,6 +38,26 @@ def load_script() -> Callable[[Path], ModuleType]:
     return load
 
 
+@pytest.fixture
+def data_without_training_households(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """A data folder with every data file here but microgrid's training households (the real file and the
+    synthetic stand-in), and an empty user cache: microgrid's published section cannot be checked."""
+    from gym4real.core.datasets import dataset
+    from gym4real.microgrid.data import STAND_IN
+
+    source = Path(os.environ["GYM4REAL_DATA_DIR"])
+    left_out = {STAND_IN, dataset("microgrid/demand/train").path}
+    target = tmp_path / "data"
+    for path in source.rglob("*"):
+        relative = path.relative_to(source).as_posix()
+        if path.is_file() and relative not in left_out:
+            (target / relative).parent.mkdir(parents=True, exist_ok=True)
+            (target / relative).symlink_to(path)
+    monkeypatch.setenv("GYM4REAL_DATA_DIR", str(target))
+    monkeypatch.setenv("GYM4REAL_CACHE_DIR", str(tmp_path / "cache"))
+    return target
+
+
 CARTPOLE = "gymnasium.envs.classic_control.cartpole:CartPoleEnv"
 
 

@@ -17,6 +17,7 @@ import pytest
 
 from gym4real.results import fingerprints
 from gym4real.results.published_models import sha256_of
+from gym4real.results.results_page import refresh_manifest
 
 ROOT = Path(__file__).parents[1]
 RESULTS = ROOT / "docs" / "results"
@@ -138,6 +139,63 @@ def test_the_manifest_lists_the_distributions_the_runs_imported(elevator_quick: 
     assert runs["resumes"].tolist() == ["[]", "[]"] and runs["trained_by"].str.len().gt(0).all()
 
 
+def test_runs_and_test_phase_record_the_cpu_model_and_the_manifest_the_machines(elevator_quick: Path) -> None:
+    """The manifest named no machine: the CPU model of whatever trained and tested each section."""
+    from gym4real.bench.versions import cpu_model
+
+    cpu = cpu_model()
+    cpuinfo = Path("/proc/cpuinfo")
+    if cpuinfo.exists() and "model name" in cpuinfo.read_text():
+        names = {
+            " ".join(line.split(":", 1)[1].split())
+            for line in cpuinfo.read_text().splitlines()
+            if line.startswith("model name")
+        }
+        assert cpu in names
+    run = json.loads(
+        (elevator_quick / "elevator-v0" / "quick" / "runs" / "qlearning" / "seed42" / "run.json").read_text()
+    )
+    assert run["cpu"] == cpu
+    section = elevator_quick / "elevator-v0-quick"
+    assert pd.read_csv(section / "runs.csv")["cpu"].tolist() == [cpu, cpu]
+    assert json.loads((section / "report.json").read_text())["cpu"] == cpu
+    manifest = json.loads((elevator_quick / "manifest.json").read_text())
+    assert manifest["provenance"]["elevator-v0-quick"]["machines"] == {"trained_on": {cpu: 2}, "tested_on": cpu}
+
+
+def test_the_published_manifest_says_not_recorded_where_no_file_records_a_machine_or_an_import() -> None:
+    manifest = json.loads((RESULTS / "manifest.json").read_text())
+    for name, record in manifest["provenance"].items():
+        report = json.loads((RESULTS / name / "report.json").read_text())
+        runs = pd.read_csv(RESULTS / name / "runs.csv")
+        if "cpu" not in runs.columns:  # trained before runs recorded their machine
+            assert record["machines"]["trained_on"] == {"not recorded": len(runs)}, name
+        assert record["machines"]["tested_on"] == report.get("cpu", "not recorded"), name
+        assert record["imported"] == report.get("imported", "not recorded"), name
+
+
+def test_the_committed_manifest_is_what_its_files_record(tmp_path: Path) -> None:
+    """Rewriting the page's manifest from its files changes nothing: every hash, model listing and record in it
+    is that of the committed files (a ``models.json`` edited without its manifest fails here)."""
+    page = tmp_path / "results"
+    shutil.copytree(RESULTS, page)
+    refresh_manifest(page)
+    assert (page / "manifest.json").read_text() == (RESULTS / "manifest.json").read_text()
+
+
+def test_stale_leaves_a_section_that_is_only_not_checkable_here(
+    tmp_path: Path, data_without_training_households: Path
+) -> None:
+    """A section whose data is missing here is not retrained by ``--stale``: nothing changed, the data is missing."""
+    from gym4real.results.currency import reproduce_stale
+
+    out = tmp_path / "out"
+    shutil.copytree(RESULTS / "microgrid-v0-paper", out / "microgrid-v0-paper")
+    said = reproduce_stale(out)
+    assert said.startswith("microgrid-v0-paper: not checkable here, not rerun: ")
+    assert "`gym4real data synthesize microgrid`" in said and not (out / "microgrid-v0").exists()
+
+
 @pytest.mark.slow
 def test_a_fresh_section_is_current_and_a_changed_fingerprint_makes_it_stale(
     elevator_quick: Path, tmp_path: Path
@@ -152,8 +210,10 @@ def test_a_fresh_section_is_current_and_a_changed_fingerprint_makes_it_stale(
     report["fingerprints"]["trainer"]["trainer_version"] = 0
     report["fingerprints"]["protocol"]["episodes_sha256"] = "0" * 64
     report_path.write_text(json.dumps(report))
+    assert _cli("--check", str(out)).returncode == 5  # report.json is not the file the manifest lists
+    refresh_manifest(out)  # as if the section had been made by an earlier version of the code
     done = _cli("--check", str(out))
-    assert done.returncode != 0
+    assert done.returncode == 3, done.stderr
     line = done.stdout.strip()
     assert line.startswith("elevator-v0-quick: stale: ")
     assert "protocol.episodes_sha256 changed" in line and "trainer.trainer_version: 0 -> 1" in line
@@ -175,6 +235,7 @@ def test_a_protocol_change_alone_retests_the_finished_runs(elevator_quick: Path,
     report = json.loads(report_path.read_text())
     report["fingerprints"]["protocol"]["episodes"] = 1
     report_path.write_text(json.dumps(report))
+    refresh_manifest(out)
     run = out / "elevator-v0" / "quick" / "runs" / "qlearning" / "seed42" / "qtable.npz"
     stamp = run.stat().st_mtime_ns
     done = _cli("--stale", "--out", str(out), "--quiet")

@@ -10,7 +10,9 @@ A policy string is one of:
   function or class is a factory ``factory(env) -> policy`` (``factory(env, seed=S)`` when seeds are
   asked for), any other callable object is the policy itself.
 
-Model files are read by the loaders :data:`MODEL_LOADERS` names, which the training layer
+A model file inside a results section's ``models/`` folder must have the bytes its ``models.json`` lists
+(:func:`gym4real.bench.published.check_published`), else it is refused. Model files are read by the loaders
+:data:`MODEL_LOADERS` names, which the training layer
 (:mod:`gym4real.rl`) provides: they are imported when a model is asked for, so measurement never imports
 training (the architecture's layers).
 """
@@ -25,6 +27,7 @@ from typing import Any
 
 import gymnasium as gym
 
+from gym4real.bench.published import check_published
 from gym4real.core.errors import PolicyError
 from gym4real.core.registry import base_env, load_object, registry
 from gym4real.wrappers.multi_objective import MultiObjective
@@ -158,6 +161,7 @@ def make_policy(env_id: str, policy: str | Callable[[Any], Any], env: gym.Env[An
             raise PolicyError(f"unknown policy kind `{kind}` in `{policy}`; expected {POLICY_FORMS}")
         if not Path(path).is_file():
             raise PolicyError(f"policy file `{path}` (from `{policy}`) does not exist")
+        check_published(path)  # a published model of a results folder: its bytes must be the listed ones
         if algo is not None:
             from_sb3: Callable[[Any], Any] = load_object(SB3_LOADER)(env, path, algo.lower())
             return from_sb3

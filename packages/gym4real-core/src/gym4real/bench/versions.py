@@ -44,6 +44,8 @@ DEPENDENCIES = (
     "stable-baselines3",
     "numba",
     "mujoco",
+    "onnxruntime",
+    "opencv-python-headless",
     "owa-epanet",
 )
 
@@ -67,3 +69,23 @@ def versions() -> dict[str, str]:
             found[name] = "not installed"
     found["python"] = platform.python_version()
     return dict(sorted(found.items()))
+
+
+#: Said of what a machine or a file does not record.
+NOT_RECORDED = "not recorded"
+
+
+def cpu_model() -> str:
+    """The CPU model of this machine: ``model name`` in ``/proc/cpuinfo`` (Linux), else the platform's processor.
+
+    :data:`NOT_RECORDED` when neither names one.
+    """
+    try:
+        text = Path("/proc/cpuinfo").read_text(errors="replace")
+    except OSError:
+        text = ""
+    for line in text.splitlines():
+        key, sep, value = line.partition(":")
+        if sep and key.strip() == "model name" and value.strip():
+            return " ".join(value.split())
+    return platform.processor() or NOT_RECORDED

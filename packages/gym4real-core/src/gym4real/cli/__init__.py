@@ -2,7 +2,8 @@
 
 One module per command, each with ``add(sub)`` (its arguments) and the function it runs. Errors are printed
 as one line (``gym4real: error: ...``) with exit status 2, never a traceback (set ``GYM4REAL_DEBUG=1`` for
-one).
+one); an error that documents its own ``exit_status`` (``reproduce --check``: stale, not checkable here,
+damaged files) exits with that.
 """
 
 from __future__ import annotations
@@ -67,5 +68,5 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise
         msg = " ".join(str(exc).split())
         print(f"gym4real: error: {msg}", file=sys.stderr)
-        return 2
+        return exc.exit_status if isinstance(exc, Gym4RealError) else 2
     return 0

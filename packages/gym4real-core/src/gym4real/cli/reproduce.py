@@ -16,15 +16,11 @@ def _reproduce(args: argparse.Namespace) -> None:
     from gym4real.results.run_files import DamagedRunError
 
     if args.check is not None:
-        from gym4real.results.currency import StaleResultsError, check
+        from gym4real.results.currency import check
 
-        lines, stale = check(args.check)
-        print("\n".join(lines))
-        if stale:
-            raise StaleResultsError(
-                f"{len(stale)} of {len(lines)} sections are stale ({', '.join(stale)}): rerun them with "
-                f"`gym4real reproduce --stale --out OUT` on the output folder they came from"
-            )
+        found = check(args.check)
+        print("\n".join(found.lines))
+        found.raise_for_outcome()
         return
     if args.stale:
         from gym4real.results.currency import reproduce_stale
@@ -97,7 +93,11 @@ def add(sub: Any) -> None:
         default=None,
         metavar="DIR",
         help="say per results section of DIR (an output or page folder) whether it is current with this code "
-        "(its protocol, data and trainer fingerprints) or stale, and what changed; exit 0 only when all are current",
+        "(its protocol, data and trainer fingerprints), stale (what changed) or not checkable here (the data it read "
+        "is missing here: the command that brings it, and its cost), and check every file of DIR against the SHA-256 "
+        "of manifest.json and models.json (missing, changed and unknown files and missing sections, by name). Exit "
+        "status: 0 all current and every file as listed; 5 a file or section damaged (whatever else); 3 a section "
+        "stale; 4 a section not checkable here (and none stale); 2 DIR cannot be checked",
     )
     rep.add_argument(
         "--stale",

@@ -4,7 +4,13 @@ from __future__ import annotations
 
 
 class Gym4RealError(Exception):
-    """Base class of every error raised by Gym4ReaL."""
+    """Base class of every error raised by Gym4ReaL.
+
+    ``exit_status`` is the exit status of the ``gym4real`` command that stops on the error: 2, unless a
+    subclass documents its own (``gym4real reproduce --check``'s outcomes).
+    """
+
+    exit_status = 2
 
 
 class ConfigError(Gym4RealError, ValueError):

@@ -142,16 +142,42 @@ def changes(recorded: dict[str, Any] | None, installed: dict[str, Any]) -> list[
     return found
 
 
+#: How a change names a section whose fingerprints cannot be computed here (its env cannot be made).
+UNAVAILABLE = "cannot be fingerprinted here"
+
+
+def not_here(found: list[str]) -> tuple[list[str], list[str]]:
+    """The changes of :func:`changes` that only say what is missing here, and not what changed.
+
+    Returns:
+        The data files found nowhere here (by name), and why the fingerprints cannot be computed here (the
+        error, with its fix); the other changes make a section stale.
+    """
+    suffix = f": {NOT_FOUND}"
+    missing = [c[len("data.") : -len(suffix)] for c in found if c.startswith("data.") and c.endswith(suffix)]
+    unavailable = [c[len(UNAVAILABLE) + 2 :] for c in found if c.startswith(f"{UNAVAILABLE}: ")]
+    return missing, unavailable
+
+
 def section_changes(folder: Path) -> list[str]:
-    """What makes the results section in ``folder`` stale (empty when it is current)."""
+    """What makes the results section in ``folder`` stale (empty when it is current).
+
+    Raises:
+        DamagedResultsError: Its ``report.json`` is not UTF-8 JSON of a section (named).
+    """
+    from gym4real.results.artefacts import DamagedResultsError, read_json
+
     if (folder / "error.txt").exists():
         return ["not run (error.txt)"]
     report_path = folder / "report.json"
     if not report_path.exists():
         return ["no report.json"]
-    report = json.loads(report_path.read_text())
+    where = f"{folder.name}/report.json"
+    report = read_json(report_path, where)
+    if not (isinstance(report, dict) and isinstance(report.get("env_id"), str) and isinstance(report.get("budget"), str)):
+        raise DamagedResultsError(f"`{where}` names no env_id and budget: it is damaged")
     try:
         installed = fingerprints(report["env_id"], report["budget"])
     except Gym4RealError as exc:
-        return [f"cannot be fingerprinted here: {' '.join(str(exc).split())}"]
+        return [f"{UNAVAILABLE}: {' '.join(str(exc).split())}"]
     return changes(report.get(KEY), installed)

@@ -12,6 +12,7 @@ from typing import Any
 
 import pandas as pd
 
+from gym4real.bench.versions import NOT_RECORDED
 from gym4real.rl.imported import imported_distributions, union
 from gym4real.rl.schedules import learning_rate_words
 from gym4real.rl.train import TrainingRun
@@ -73,8 +74,9 @@ def selected_checkpoint(curve: pd.DataFrame, min_improvement: float = 0.0) -> tu
 def runs_table(runs: list[TrainingRun]) -> pd.DataFrame:
     """``runs.csv``: one row per training run, its budget, cost, learning rate, kept checkpoint and settings.
 
-    ``trained_by`` is the code version that trained the run (``git describe --dirty``); ``resumes`` lists
-    the checkpoints it went on from (JSON: unit, count, code version), ``[]`` for a run never interrupted.
+    ``trained_by`` is the code version that trained the run (``git describe --dirty``); ``cpu`` the CPU model
+    of the machine that finished it; ``resumes`` lists the checkpoints it went on from (JSON: unit, count, code
+    version, CPU model), ``[]`` for a run never interrupted.
     """
     rows = []
     for run in sorted(runs, key=lambda r: (r.algo, r.seed)):
@@ -100,6 +102,7 @@ def runs_table(runs: list[TrainingRun]) -> pd.DataFrame:
                 "selected_validation_return": kept[1] if kept else None,
                 "settings": json.dumps(hp, sort_keys=True),
                 "trained_by": record.get("versions", {}).get("gym4real (git)", "not recorded"),
+                "cpu": record.get("cpu", NOT_RECORDED),
                 "resumes": json.dumps(record["resumes"]) if "resumes" in record else "not recorded",
             }
         )

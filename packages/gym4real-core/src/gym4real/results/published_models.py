@@ -6,7 +6,14 @@ Each training run's model (SB3: ``model.zip`` and, when the preset normalises ob
 ``gym4real evaluate`` on it reruns that seed's test episodes. ``models.json`` lists every model, published or
 not, with the SHA-256 and size of each file, the ``gym4real evaluate`` command that tests a published one and
 the ``gym4real train`` command that trains it again (the only way to get a larger one, such as robofeeder's
-CNNs).
+CNNs). ``gym4real evaluate`` and ``bench`` refuse a published model whose files differ from the listed
+SHA-256 (:mod:`gym4real.bench.published`).
+
+A model's ``note`` says, where it was measured, how ``gym4real evaluate`` on it agrees with its seed's rows
+of ``episodes.csv`` on which machines ("bit for bit" only where every episode and column is equal);
+``agreement`` states the agreement to expect anywhere: ``rtol``, the largest relative difference per test
+episode and column (objective, return and each component). A model without ``agreement`` reproduces its
+rows bit for bit.
 """
 
 from __future__ import annotations
@@ -17,16 +24,13 @@ import shutil
 from pathlib import Path
 from typing import Any
 
+from gym4real.bench.published import FOLDER, LISTING
 from gym4real.bench.seeds import listed_seeds_flag
 from gym4real.core.registry import slug
 from gym4real.rl.train import TrainingRun
 
 #: The largest model (all its files) published beside the results.
 MAX_BYTES = 5 * 1024 * 1024
-#: The folder of the published models inside a results section.
-FOLDER = "models"
-#: The listing of a section's models.
-LISTING = "models.json"
 #: Files beside a model that a policy loads with it.
 COMPANIONS = ("normalize.npz",)
 

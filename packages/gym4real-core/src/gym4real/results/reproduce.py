@@ -187,7 +187,7 @@ def reproduce_env(
     """Test the trained ``runs`` of ``env_id`` (one per algorithm and seed), check the claims, write.
 
     Writes into ``OUT/<env>-<budget>/``: ``episodes.csv`` and ``runs.csv`` (the raw data), ``report.json``
-    (command, protocol, code version, versions, data files, the fingerprints of
+    (command, protocol, code version, versions, the CPU model of the machine that tests, data files, the fingerprints of
     :mod:`~gym4real.results.fingerprints` and the distributions the runs imported), the models
     (:mod:`~gym4real.results.published_models`), then the statistics computed from ``episodes.csv`` alone
     (:func:`gym4real.results.analysis.analyse`) and the figures.
@@ -219,6 +219,7 @@ def reproduce_env(
         "code_version": versions.code_version(),
         "versions": versions.versions(),
         "platform": platform.platform(),
+        "cpu": versions.cpu_model(),
         "data_files": provenance.data_files(env_id),
         fingerprints.KEY: fingerprints.fingerprints(env_id, budget),
     }

@@ -24,12 +24,13 @@ import pandas as pd
 
 from gym4real.bench import stats
 from gym4real.bench.numbers import human
+from gym4real.bench.published import FOLDER as MODELS
 from gym4real.results import analysis, summary_figure, workspace
+from gym4real.results.artefacts import MANIFEST, PAGE, RENDERED, DamagedResultsError, read_json
 from gym4real.results.claims import QUANTITIES, RULES, VERDICTS
 from gym4real.results.fingerprints import section_changes
 from gym4real.results.headroom_page import headroom_table
 from gym4real.results.page_manifest import files_sha256, imported_by_all, section_record
-from gym4real.results.published_models import FOLDER as MODELS
 from gym4real.results.section_provenance import currency_line, models_lines, run_provenance
 from gym4real.results.stand_ins import budget_mark, difference_lines
 
@@ -567,6 +568,46 @@ def manifest(sections: list[Section], version: str) -> dict[str, Any]:
     }
 
 
+def page_files(out: Path, text: str) -> dict[str, str]:
+    """The page's own files with their SHA-256: ``claims.json``, the summary figure and ``index.md``.
+
+    ``text`` is the page, which an output folder holds as ``results.md``.
+    """
+    files = [p for name in ("claims.json", summary_figure.FILE) if (p := out / name).exists()]
+    return {**files_sha256(files, out), PAGE: hashlib.sha256(text.encode()).hexdigest()}
+
+
+def refresh_manifest(folder: str | Path) -> Path:
+    """Rewrite ``manifest.json`` of a rendered folder from its files, keeping what its rendering found.
+
+    For an edit of files whose text the page does not show (a model's ``note`` in ``models.json``) and for a
+    manifest written before it recorded a file or field: every file's SHA-256 and what each section's files
+    record (models, imported distributions, machines, versions) are read again from the folder; the code
+    versions and each section's currency are the rendering's, as the manifest recorded them. Nothing else
+    is written. ``python scripts/refresh_manifest.py docs/results``.
+
+    Raises:
+        DamagedResultsError: The manifest or a section's ``report.json`` cannot be read, or the sections of
+            the folder are not those the manifest lists: render the page again instead.
+    """
+    folder = Path(folder)
+    old = read_json(folder / MANIFEST, MANIFEST)
+    here = {p.name for p in folder.iterdir() if p.is_dir() and FOLDER.match(p.name)}
+    if not isinstance(old, dict) or not isinstance(old.get("provenance"), dict) or set(old["provenance"]) != here:
+        raise DamagedResultsError(
+            f"`{folder / MANIFEST}` does not list the sections of `{folder}` ({', '.join(sorted(here))}): render the "
+            "page again (`gym4real reproduce ... --page`) rather than refresh its manifest"
+        )
+    records = {}
+    for name, before in old["provenance"].items():
+        report = read_json(folder / name / "report.json", f"{name}/report.json")
+        records[name] = section_record(folder / name, report, published_files(folder / name), list(before["stale"]))
+    text = (folder / PAGE if (folder / PAGE).is_file() else folder / RENDERED).read_text()
+    record = {**old, "imported": imported_by_all(records), "provenance": records, "files": page_files(folder, text)}
+    (folder / MANIFEST).write_text(json.dumps(record, indent=1))
+    return folder / MANIFEST
+
+
 def published_files(folder: Path) -> list[Path]:
     """The files of a results folder that the page folder holds: data, statistics, figures and models."""
     files = [folder / f for f in PUBLISHED] + [folder / f for f, _ in _FIGURES]
@@ -619,17 +660,14 @@ def write_page(out: Path, page: str | Path | None = None) -> Path:
     (out / "claims.md").write_text(
         claims_table(claims, scales, marks=marks) + claims_table(claims, scales, True, marks)
     )
-    record["files"] = {  # the page's own files (a page folder's index.md is results.md)
-        **files_sha256([out / "claims.json"], out),
-        "index.md": hashlib.sha256(text.encode()).hexdigest(),
-    }
-    (out / "manifest.json").write_text(json.dumps(record, indent=1))
+    record["files"] = page_files(out, text)
+    (out / MANIFEST).write_text(json.dumps(record, indent=1))
     if page is None:
         return out / "results.md"
     page = Path(page)
     page.mkdir(parents=True, exist_ok=True)
     (page / "index.md").write_text(text)
-    for name in ("claims.json", "manifest.json", summary_figure.FILE):
+    for name in ("claims.json", MANIFEST, summary_figure.FILE):
         if (out / name).exists() and (page / name).resolve() != (out / name).resolve():
             shutil.copy(out / name, page / name)
     shutil.rmtree(page / "figures", ignore_errors=True)  # the layout before raw data: figures/<env>-<budget>/

@@ -7,8 +7,7 @@ from pathlib import Path
 
 import pandas as pd
 
-#: Shown for what a section's files do not record (runs trained before the record existed).
-NOT_RECORDED = "not recorded"
+from gym4real.bench.versions import NOT_RECORDED
 
 
 def currency_line(stale: list[str], verified: dict[str, str] | None = None) -> str:

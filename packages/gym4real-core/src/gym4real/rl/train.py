@@ -2,7 +2,8 @@
 
 A run folder holds ``settings.json`` (what is trained: env, algo, preset, seed and every setting), the
 model, the learning curve, a checkpoint while the run is unfinished, and ``run.json`` once it is finished
-(wall time, environment steps, versions). Training in a folder that holds an unfinished run of the same
+(wall time, environment steps, versions, the distributions it imported, the CPU model of the machine that
+finished it and its resumes). Training in a folder that holds an unfinished run of the same
 settings resumes it; a folder of other settings is refused.
 """
 
@@ -16,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from gym4real.bench.seeds import is_preset_file
-from gym4real.bench.versions import git_version
+from gym4real.bench.versions import cpu_model, git_version
 from gym4real.core.errors import ConfigError
 from gym4real.core.registry import slug
 from gym4real.rl.imported import imported_distributions
@@ -185,6 +186,7 @@ def train(
         "eval_steps": steps["eval"],
         "steps_per_s": run.steps_per_s,
         "versions": versions(),
+        "cpu": cpu_model(),
         "resumes": resumes,
         "imported": imported_distributions(),
     }
@@ -214,13 +216,14 @@ def checkpoint_progress(folder: Path) -> dict[str, Any] | None:
 def record_resume(folder: Path) -> list[dict[str, Any]]:
     """The run's resumes so far, this start appended when it resumes from a checkpoint (``resumes.json``).
 
-    Each entry says from where the run went on (unit and count) and the code version that went on with it.
+    Each entry says from where the run went on (unit and count), the code version that went on with it and
+    the CPU model of the machine it went on on.
     """
     path = folder / RESUMES
     resumes: list[dict[str, Any]] = json.loads(path.read_text()) if path.exists() else []
     at = checkpoint_progress(folder)
     if at is not None:
-        resumes.append({**at, "code_version": versions().get("gym4real (git)", "unknown")})
+        resumes.append({**at, "code_version": versions().get("gym4real (git)", "unknown"), "cpu": cpu_model()})
         path.write_text(json.dumps(resumes, indent=1))
     return resumes
 
