@@ -23,7 +23,13 @@ RESULTS = Path(__file__).parents[1] / "docs" / "results"
 
 
 @pytest.mark.parametrize(
-    ("section", "algo", "seed"), [("dam-v0-paper", "ppo", 0), ("dam-v0-paper", "ppo", 123), ("wds-v0-paper", "dqn", 42)]
+    ("section", "algo", "seed"),
+    [
+        ("dam-v0-paper", "ppo", 0),
+        ("dam-v0-paper", "ppo", 123),
+        ("wds-v0-paper", "dqn", 42),
+        ("elevator-v0-paper", "sarsa", 42),
+    ],
 )
 def test_the_listed_evaluate_command_reproduces_the_published_model_s_test_episodes(
     section: str, algo: str, seed: int, listed_evaluate: Callable[[dict[str, Any], Path], pd.DataFrame]

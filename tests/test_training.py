@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -380,3 +381,24 @@ def test_a_copy_outside_git_records_the_code_version_its_launcher_states(
     assert "gym4real (git)" not in train_module.versions()
     monkeypatch.setenv("GYM4REAL_CODE_VERSION", "abc1234")
     assert train_module.versions()["gym4real (git)"] == "abc1234 (stated)"
+
+
+def test_a_greedy_table_acts_as_its_q_table_in_every_state(tmp_path: Path) -> None:
+    """The published form of a Q-table (:func:`save_greedy_table`) picks, in every state, the action the trained
+    table's greedy policy picks: unvisited (all-zero) rows and tied maxima included (``np.argmax`` takes the
+    first), with the table's identity kept."""
+    from gym4real.rl.tabular import save_greedy_table, save_qtable
+
+    rng = np.random.default_rng(0)
+    q = rng.normal(size=(1000, 3))
+    q[:100] = 0.0  # states never visited
+    q[100:200, 1:] = q[100:200, :1] + 1.0  # actions 1 and 2 tied at the maximum
+    radices = np.array([10, 10, 10])
+    save_qtable(tmp_path / "full.npz", q, "gym4real/elevator-v0", "qlearning", radices)
+    save_greedy_table(tmp_path / "full.npz", tmp_path / "greedy.npz")
+    with np.load(tmp_path / "greedy.npz") as greedy:
+        assert greedy["q"].dtype == np.int8 and greedy["q"].shape == q.shape
+        assert np.array_equal(np.argmax(greedy["q"], axis=1), np.argmax(q, axis=1))
+        assert np.argmax(greedy["q"][150]) == 1 and np.argmax(greedy["q"][50]) == 0
+        assert str(greedy["env_id"]) == "gym4real/elevator-v0" and str(greedy["algo"]) == "qlearning"
+        assert np.array_equal(greedy["radices"], radices)

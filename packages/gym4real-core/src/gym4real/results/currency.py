@@ -17,6 +17,8 @@ trains again. ``--stale`` leaves a section that is only not checkable here as it
 
 from __future__ import annotations
 
+import os
+
 import json
 import time
 from collections.abc import Sequence
@@ -119,7 +121,8 @@ def _data_fix(name: str, recorded: object) -> str:
             needs = f"; it needs {' '.join(str(exc).split())}"
         return (
             f"it read the synthetic stand-in of `{name}`, which is not here: `gym4real data synthesize {domain}` "
-            f"writes it ({module.expected_time(module.HOUSEHOLDS, 1)} with one job, less with `--jobs N`{needs})"
+            f"writes it, with a worker per core, in {module.expected_time(module.HOUSEHOLDS, os.cpu_count() or 1)}"
+            f"{needs}"
         )
     return (
         f"it read `{name}` (`{spec.path}`), which is not here: `gym4real data fetch {domain}` downloads it, or set "

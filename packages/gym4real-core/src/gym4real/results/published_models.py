@@ -1,8 +1,10 @@
 """The trained models of a results section, published beside its test episodes.
 
 Each training run's model (SB3: ``model.zip`` and, when the preset normalises observations, the statistics
-``normalize.npz`` it was tested with; tabular: ``qtable.npz``) is copied into
-``<env>-<budget>/models/<algo>-seed<S>/`` when its files total at most :data:`MAX_BYTES`, so that
+``normalize.npz`` it was tested with) is copied into ``<env>-<budget>/models/<algo>-seed<S>/`` when its files
+total at most :data:`MAX_BYTES`; a tabular run's ``qtable.npz`` is published as its greedy policy
+(:func:`gym4real.rl.tabular.save_greedy_table`: the action of every state, which is all a test episode
+reads, at a few percent of the table's size), the trained table's SHA-256 listed beside it, so that
 ``gym4real evaluate`` on it reruns that seed's test episodes. ``models.json`` lists every model, published or
 not, with the SHA-256 and size of each file, the ``gym4real evaluate`` command that tests a published one and
 the ``gym4real train`` command that trains it again (the only way to get a larger one, such as robofeeder's
@@ -27,6 +29,7 @@ from typing import Any
 from gym4real.bench.published import FOLDER, LISTING
 from gym4real.bench.seeds import listed_seeds_flag
 from gym4real.core.registry import slug
+from gym4real.rl.tabular import QTABLE, save_greedy_table
 from gym4real.rl.train import TrainingRun
 
 #: The largest model (all its files) published beside the results.
@@ -49,6 +52,16 @@ def model_files(run: TrainingRun) -> list[Path]:
     return [run.model_path] + [p for name in COMPANIONS if (p := run.model_path.with_name(name)).exists()]
 
 
+def _publish_file(source: Path, path: Path) -> Path:
+    """Write the published copy of a model file (a Q-table as its greedy policy) and return its path."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if source.name == QTABLE:
+        save_greedy_table(source, path)
+    else:
+        shutil.copy(source, path)
+    return path
+
+
 def publish_models(runs: list[TrainingRun], section: Path, budget: str) -> list[dict[str, Any]]:
     """Copy each run's model into ``section/models/`` (up to :data:`MAX_BYTES`) and write ``models.json``.
 
@@ -65,9 +78,9 @@ def publish_models(runs: list[TrainingRun], section: Path, budget: str) -> list[
     shutil.rmtree(target, ignore_errors=True)
     listing = []
     for run in sorted(runs, key=lambda r: (r.algo, r.seed)):
-        files = model_files(run)
-        size = sum(p.stat().st_size for p in files)
         name = f"{run.algo}-seed{run.seed}"
+        files = [_publish_file(p, target / name / p.name) for p in model_files(run)]
+        size = sum(p.stat().st_size for p in files)
         published = size <= MAX_BYTES
         record = json.loads((run.model_path.parent / "run.json").read_text())
         entry: dict[str, Any] = {
@@ -83,10 +96,14 @@ def publish_models(runs: list[TrainingRun], section: Path, budget: str) -> list[
                 f"--out runs/{slug(run.env_id)}/{budget}/{run.algo}/seed{run.seed}"
             ),
         }
+        if run.model_path.name == QTABLE:
+            entry["trained_table"] = {
+                "name": QTABLE,
+                "sha256": sha256_of(run.model_path),
+                "bytes": run.model_path.stat().st_size,
+                "published_as": "its greedy policy (the action of each state; values not kept)",
+            }
         if published:
-            (target / name).mkdir(parents=True, exist_ok=True)
-            for p in files:
-                shutil.copy(p, target / name / p.name)
             path = f"{section.name}/{FOLDER}/{name}/{run.model_path.name}"
             entry["path"] = f"{FOLDER}/{name}/{run.model_path.name}"
             entry["evaluate"] = (
@@ -94,6 +111,7 @@ def publish_models(runs: list[TrainingRun], section: Path, budget: str) -> list[
                 f"--seeds {listed_seeds_flag([run.seed])} (in the page folder)"
             )
         else:
+            shutil.rmtree(target / name)
             entry["why_not_published"] = f"{size / 2**20:.1f} MiB, over the {MAX_BYTES // 2**20} MiB limit"
         listing.append(entry)
     (section / LISTING).write_text(json.dumps(listing, indent=1) + "\n")

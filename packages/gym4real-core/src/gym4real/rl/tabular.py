@@ -76,9 +76,28 @@ class QTablePolicy:
         return int(np.argmax(self.q[self.indexer(obs)]))
 
 
+#: The file name of a run's Q-table.
+QTABLE = "qtable.npz"
+
+
 def save_qtable(path: Path, q: np.ndarray, env_id: str, algo: str, radices: np.ndarray) -> None:
     """Write a Q-table with what identifies the environment it belongs to."""
     np.savez_compressed(path, q=q, env_id=np.array(env_id), algo=np.array(algo), radices=radices)
+
+
+def save_greedy_table(source: Path, path: Path) -> None:
+    """Write the greedy policy of the Q-table ``source`` as a Q-table file that :func:`load_policy` reads.
+
+    Each state's row holds 1 (int8) at the action ``np.argmax`` picks in the trained table (the first of
+    tied maxima) and 0 elsewhere, so :class:`QTablePolicy` on it acts exactly as on the trained table in every
+    state, while the file is a few percent of the trained one (elevator: 0.13 MB instead of 4.8 MB). The
+    values themselves are not kept: retrain the run for them.
+    """
+    with np.load(source, allow_pickle=False) as data:
+        q, env_id, algo, radices = data["q"], str(data["env_id"]), str(data["algo"]), data["radices"]
+    greedy = np.zeros(q.shape, dtype=np.int8)
+    greedy[np.arange(q.shape[0]), np.argmax(q, axis=1)] = 1
+    save_qtable(path, greedy, env_id, algo, radices)
 
 
 def load_policy(env: gym.Env[Any, Any], path: str | Path) -> QTablePolicy:
@@ -315,7 +334,7 @@ def train_tabular(
             progress(done, episodes)
     env.close()
     eval_env.close()
-    path = out / "qtable.npz"
+    path = out / QTABLE
     save_qtable(path, best_q if np.isfinite(best) else q, env_id, hp["algo"], indexer.radices)
     checkpoint.path.unlink(missing_ok=True)
     return path, steps
