@@ -27,6 +27,7 @@ from gym4real.results.currency import NotCheckableError, StaleResultsError
 from gym4real.results.published_models import sha256_of
 
 RESULTS = Path(__file__).resolve().parents[1] / "docs" / "results"
+_MANIFEST = json.loads((RESULTS / "manifest.json").read_text())
 
 
 @pytest.fixture
@@ -64,7 +65,9 @@ def test_the_untouched_copy_passes_and_a_section_without_its_data_is_not_checkab
     assert line.startswith(
         "microgrid-v0-paper: not checkable here: it read the synthetic stand-in of `microgrid/demand/train`"
     )
-    assert "`gym4real data synthesize microgrid`" in line and re.search(r"with a worker per core, in about \d+(\.\d+)? (s|min) on idle cores \(measured", line)
+    assert "`gym4real data synthesize microgrid`" in line and re.search(
+        r"with a worker per core, in about \d+(\.\d+)? (s|min) on idle cores \(measured", line
+    )
     assert f"1 of {len(sections)} sections cannot be checked here (microgrid-v0-paper)" in err
     said = (" ".join(lines) + err).lower()
     assert "stale" not in said and "train again" not in said and "retrain" not in said and "rerun" not in said
@@ -151,7 +154,7 @@ TAMPERINGS: dict[str, tuple[Callable[[Path], object], str, list[str]]] = {
         "elevator-v0-paper",
         [
             "elevator-v0-paper/ missing: manifest.json lists this section and its "
-            f"{len(json.loads((RESULTS / 'manifest.json').read_text())['provenance']['elevator-v0-paper']['files'])} files"
+            f"{len(_MANIFEST['provenance']['elevator-v0-paper']['files'])} files"
         ],
     ),
     "a non-UTF-8 byte in claims.json": (
