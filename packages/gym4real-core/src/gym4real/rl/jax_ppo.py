@@ -138,9 +138,9 @@ class _Rollout:
         )
 
     def rows(self, name: str) -> np.ndarray:
-        """A buffer's rollout rows (the last observation row left out) as ``(steps * copies, ...)``."""
+        """A copy of a buffer's rollout rows (the last observation row left out) as ``(steps * copies, ...)``."""
         data = getattr(self, name)[: self.steps]
-        return data.reshape(self.steps * self.n, *data.shape[2:])
+        return data.reshape(self.steps * self.n, *data.shape[2:]).copy()
 
 
 class JaxPPO:
@@ -207,6 +207,7 @@ class JaxPPO:
         shape = (self.rollout.steps, self.n_envs, self.arch.actions)
         self._noise = jax.jit(lambda key: noise(key, shape, jax.numpy.float32))
         self._raw: tuple[np.ndarray, ...] = ()
+        self._update_key: Any = None
 
     # -- state ---------------------------------------------------------------------------------------
 
@@ -287,11 +288,14 @@ class JaxPPO:
 
     def iteration(self) -> np.ndarray:
         """Collect a rollout and update on it; return each epoch's mean KL estimate."""
+        return self.learn(self.collect())
+
+    def collect(self) -> dict[str, np.ndarray]:
+        """Collect a rollout; return its rows as the update takes them (:func:`gym4real.rl.jax_update.losses`)."""
         jax = self.jax
         r, steps = self.rollout, self.rollout.steps
-        iteration = self.timesteps // (steps * self.n_envs)
-        key = jax.random.fold_in(jax.random.PRNGKey(self.seed), iteration)
-        noise_key, update_key = jax.random.split(key)
+        iteration = self.timesteps // (steps * self.n_envs)  # its keys: from the seed and the iteration alone
+        noise_key, self._update_key = jax.random.split(jax.random.fold_in(jax.random.PRNGKey(self.seed), iteration))
         noise = np.asarray(self._noise(noise_key))
         net = self._net()
         env_actions = r.env_actions[:, 0].astype(np.int64) if self.arch.discrete else r.env_actions
@@ -322,12 +326,17 @@ class JaxPPO:
             "returns": returns,
             "valid": valid.astype(np.float32),
         }
+        r.obs[0], r.values[0], r.valid[0] = r.obs[steps], r.values[steps], r.valid[steps]
+        return data
+
+    def learn(self, data: dict[str, np.ndarray]) -> np.ndarray:
+        """Update on a rollout's rows (from :meth:`collect`); return each epoch's mean KL estimate."""
+        jax = self.jax
         if not isinstance(self.schedule, KLAdaptive):
             self.rate = self.schedule(1.0 - self.timesteps / self.total)
         rate = jax.numpy.float32(self.rate)
-        self.params, self.opt_state, new_rate, kls = self.update(self.params, self.opt_state, rate, update_key, data)
-        self.rate = float(new_rate)
-        r.obs[0], r.values[0], r.valid[0] = r.obs[steps], r.values[steps], r.valid[steps]
+        self.params, self.opt_state, rate, kls = self.update(self.params, self.opt_state, rate, self._update_key, data)
+        self.rate = float(rate)
         return np.asarray(kls)
 
     def close(self) -> None:
