@@ -40,7 +40,7 @@ import gymnasium as gym
 import numpy as np
 
 from gym4real.core.errors import ConfigError, PolicyError
-from gym4real.rl.actor_critic import Model, Normalization, architecture, initial_parameters
+from gym4real.rl.actor_critic import Model, Normalization, architecture, initial_parameters, network
 from gym4real.rl.progress import Progress
 from gym4real.rl.schedules import KLAdaptive, schedule
 from gym4real.rl.storage import write_whole
@@ -158,7 +158,8 @@ class JaxPPO:
         from gym4real.rl.jax_update import UpdateSettings, make_update, optimizer
         from gym4real.rl.sb3 import rescaled
 
-        self.jax, self.kernel = jax, rollout_kernel
+        self.jax = jax
+        self.kernel: Any = rollout_kernel  # its compiled functions, called with tuples of arrays
         self.ppo = p = ppo_settings(env_id, hp)
         self.seed = seed
         self.n_envs = int(hp.get("n_envs", 1))
@@ -248,34 +249,17 @@ class JaxPPO:
 
     # -- training ------------------------------------------------------------------------------------
 
-    def _net(self) -> tuple[tuple[np.ndarray, ...], ...]:
-        from gym4real.rl.actor_critic import network
+    def _arguments(self) -> tuple[tuple[Any, ...], tuple[Any, ...]]:
+        """What :func:`gym4real.rl.rollout_kernel.step` takes besides a step's own values, fixed for a rollout.
 
+        The arguments between ``observe`` and ``noise``, then those between ``noise`` and ``act``.
+        """
         params = {k: np.asarray(v) for k, v in self.params.items()}
-        return (*network(params, self.arch, "pi"), *network(params, self.arch, "vf"))
-
-    def _step(self, t: int, observe: bool, act: bool, net: tuple[Any, ...], noise: np.ndarray) -> None:
-        raw, reward, terminated, truncated = self._raw
-        log_std = np.asarray(self.params["log_std"]) if "log_std" in self.params else np.zeros(1, np.float32)
+        net = (*network(params, self.arch, "pi"), *network(params, self.arch, "vf"))
+        log_std = params.get("log_std", np.zeros(1, np.float32))
         scale = (self.scaler.mean, self.scaler.std, self.scaler.clip) if self.scaler is not None else (0.0, 1.0, 0.0)
-        self.kernel.step(
-            t,
-            raw,
-            reward,
-            terminated,
-            truncated,
-            observe,
-            (*self.stats, self.clip_obs, 1e-8),
-            self.normalize,
-            net,
-            log_std,
-            noise[min(t, len(noise) - 1)],
-            scale,
-            self.bounds,
-            self.rollout.buffers,
-            self.rollout.env_actions,
-            act,
-        )
+        head = ((*self.stats, self.clip_obs, 1e-8), self.normalize, net, log_std)
+        return head, (scale, self.bounds, self.rollout.buffers, self.rollout.env_actions)
 
     def start_episodes(self) -> None:
         """Reset every copy, seeded ``seed + timesteps``, into the rollout's first row."""
@@ -284,7 +268,8 @@ class JaxPPO:
         zeros = np.zeros(n, dtype=bool)
         self._raw = (np.asarray(obs, dtype=np.float32), np.zeros(n, np.float32), zeros, zeros)
         self.rollout.valid[0] = True
-        self._step(0, True, False, self._net(), np.zeros((1, n, self.arch.actions), np.float32))
+        head, tail = self._arguments()
+        self.kernel.step(0, *self._raw, True, *head, np.zeros((n, self.arch.actions), np.float32), *tail, False)
 
     def iteration(self) -> np.ndarray:
         """Collect a rollout and update on it; return each epoch's mean KL estimate."""
@@ -297,15 +282,18 @@ class JaxPPO:
         iteration = self.timesteps // (steps * self.n_envs)  # its keys: from the seed and the iteration alone
         noise_key, self._update_key = jax.random.split(jax.random.fold_in(jax.random.PRNGKey(self.seed), iteration))
         noise = np.asarray(self._noise(noise_key))
-        net = self._net()
-        env_actions = r.env_actions[:, 0].astype(np.int64) if self.arch.discrete else r.env_actions
-        for t in range(steps):
-            self._step(t, t > 0, True, net, noise)
-            if self.arch.discrete:
+        head, tail = self._arguments()
+        step, venv, discrete = self.kernel.step, self.venv, self.arch.discrete
+        env_actions = r.env_actions[:, 0].astype(np.int64) if discrete else r.env_actions
+        raw = self._raw
+        for t in range(steps):  # the hot loop: the env's step and one compiled call
+            step(t, *raw, t > 0, *head, noise[t], *tail, True)
+            if discrete:
                 env_actions[:] = r.env_actions[:, 0]
-            obs, reward, terminated, truncated, _ = self.venv.step(env_actions)
-            self._raw = (obs, np.asarray(reward, np.float32), terminated, truncated)
-        self._step(steps, True, False, net, noise)
+            obs, reward, terminated, truncated, _ = venv.step(env_actions)
+            raw = (obs, reward, terminated, truncated)
+        step(steps, *raw, True, *head, noise[-1], *tail, False)
+        self._raw = raw
         self.timesteps += steps * self.n_envs
         gamma, lam = float(self.ppo["gamma"]), float(self.ppo["gae_lambda"])
         advantages, returns = self.kernel.advantages(r.rewards, r.values, r.terminated, r.truncated, gamma, lam)
