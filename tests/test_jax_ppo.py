@@ -516,3 +516,19 @@ def test_without_the_extra_the_trainer_names_it(monkeypatch: pytest.MonkeyPatch,
     from gym4real.cli import main
 
     assert main(["train", DAM, "--algo", "ppo", "--trainer", "jax", "--out", str(tmp_path / "r"), "--quiet"]) != 0
+
+
+def test_reproduce_with_the_jax_trainer_labels_its_section_runs_and_models(tmp_path: Path) -> None:
+    from gym4real.results.reproduce import reproduce
+
+    reproduce([DAM], "quick", [0], tmp_path, trainer="jax")
+    section = tmp_path / "dam-v0-quick-jax"
+    assert not (tmp_path / "dam-v0-quick").exists()  # the SB3 section is not touched
+    episodes = section / "episodes.csv"
+    assert "ppo-jax" in episodes.read_text() and ",ppo," not in episodes.read_text()
+    assert (tmp_path / "dam-v0" / "quick" / "runs" / "ppo-jax" / "seed0" / "model.npz").exists()
+    (listing,) = json.loads((section / "models.json").read_text())
+    assert listing["trainer"] == "jax" and "--trainer jax" in listing["retrain"]
+    assert "published-ppo-jax=ppo-jax:" in listing["evaluate"]
+    report = json.loads((section / "report.json").read_text())
+    assert report["presets"] == {"ppo-jax": "smoke"} and report["command"].endswith("--trainer jax")

@@ -57,9 +57,14 @@ class TrainingRun:
     trainer: str = "sb3"
 
     @property
+    def agent(self) -> str:
+        """The agent's name in reports (:func:`label`: ``ppo``, ``ppo-jax``)."""
+        return label(self.algo, self.trainer)
+
+    @property
     def policy(self) -> str:
         """The bench policy string of the trained model (``ppo:DIR/model.zip``, ``ppo-jax:DIR/model.npz``)."""
-        return f"{label(self.algo, self.trainer)}:{self.model_path}"
+        return f"{self.agent}:{self.model_path}"
 
     @property
     def steps_per_s(self) -> float:
