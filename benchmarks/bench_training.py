@@ -24,7 +24,8 @@ With ``--trainers``: PPO's two trainers side by side, SB3 (``--trainer sb3``) an
 seconds of an iteration (``n_steps * n_envs`` steps; the mean of ``--iterations`` after an untimed one that
 compiles), in CPU seconds of this process and in wall seconds, and the ratio of the training steps per CPU
 second to the single env's raw step rate (``gymnasium.make``, random actions). Evaluation is left out (the
-trainers share it).
+trainers share it). Microgrid runs on the ``default`` data and trading on its ``hourly`` preset (the paper
+presets' data are not in the offline data folder).
 
     python benchmarks/bench_training.py [--presets gym4real/dam-v0:ppo:paper,...] [--steps 20000]
     python benchmarks/bench_training.py --end-to-end [--steps 16384] [--json out.json]
@@ -223,7 +224,7 @@ def _end_to_end(item: str, env_kwargs: dict[str, Any] | None, steps: int, raw_st
 TRAINERS = {
     "gym4real/microgrid-v0:ppo:paper": {"preset": "default"},
     "gym4real/dam-v0:ppo:paper": None,
-    "gym4real/trading-v0:ppo:paper": None,
+    "gym4real/trading-v0:ppo:hourly": None,  # the paper preset's tick data is not in the offline data folder
 }
 
 
