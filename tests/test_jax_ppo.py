@@ -509,9 +509,10 @@ def test_settings_the_trainer_does_not_implement_are_named(tmp_path: Path) -> No
         train("gym4real/wds-v0", "dqn", "smoke", out=tmp_path / "x", trainer="jax")
 
 
-def test_without_the_extra_the_trainer_names_it(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
-    monkeypatch.setitem(sys.modules, "optax", None)  # an import of it fails, as when it is not installed
-    with pytest.raises(PolicyError, match=r"gym4real-core\[jax\]"):
+@pytest.mark.parametrize("missing", ["jax", "optax", "numba"])
+def test_without_the_extra_the_trainer_names_it(missing: str, monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    monkeypatch.setitem(sys.modules, missing, None)  # an import of it fails, as when it is not installed
+    with pytest.raises(PolicyError, match=rf"\({missing} is missing\): `pip install \"gym4real-core\[jax\]\"`"):
         jax_modules()
     from gym4real.cli import main
 

@@ -71,6 +71,8 @@ INSTALL = 'pip install "gym4real-core[jax]"'
 def jax_modules() -> tuple[Any, Any]:
     """``jax`` and ``optax``, XLA set to one thread first (it reads its flags when it starts).
 
+    numba is checked too: the rollout is compiled with it.
+
     Raises:
         PolicyError: The ``jax`` extra is not installed (naming the install command).
     """
@@ -79,6 +81,7 @@ def jax_modules() -> tuple[Any, Any]:
         os.environ["XLA_FLAGS"] = f"{flags} {XLA_ONE_THREAD}".strip()
     try:
         import jax
+        import numba  # noqa: F401  # the compiled rollout (gym4real.rl.rollout_kernel)
         import optax
     except ImportError as exc:
         raise PolicyError(f"`--trainer jax` needs the `jax` extra ({exc.name} is missing): `{INSTALL}`") from exc
