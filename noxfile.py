@@ -68,7 +68,7 @@ def _test_deps(dist: Path) -> list[str]:
 
 
 def _editable(dist: Path) -> str:
-    return f"-e{dist}[rl,mo,offline]" if dist == CORE else f"-e{dist}"
+    return f"-e{dist}[rl,jax,mo,offline]" if dist == CORE else f"-e{dist}"
 
 
 @nox.session

@@ -19,8 +19,17 @@ same with the harness before issue 22 (SB3's ``DummyVecEnv``, one evaluation epi
 through ``predict``). Microgrid trains and evaluates on the ``default`` preset (the paper preset's
 training households are not in the offline data folder).
 
+With ``--trainers``: PPO's two trainers side by side, SB3 (``--trainer sb3``) and JAX (``--trainer jax``,
+:mod:`gym4real.rl.jax_ppo`), on each PPO preset of an env with a native vector env: the rollout and the update
+seconds of an iteration (``n_steps * n_envs`` steps; the mean of ``--iterations`` after an untimed one that
+compiles), in CPU seconds of this process and in wall seconds, and the ratio of the training steps per CPU
+second to the single env's raw step rate (``gymnasium.make``, random actions). Evaluation is left out (the
+trainers share it). Microgrid runs on the ``default`` data and trading on its ``hourly`` preset (the paper
+presets' data are not in the offline data folder).
+
     python benchmarks/bench_training.py [--presets gym4real/dam-v0:ppo:paper,...] [--steps 20000]
     python benchmarks/bench_training.py --end-to-end [--steps 16384] [--json out.json]
+    python benchmarks/bench_training.py --trainers [--presets gym4real/microgrid-v0:ppo:paper] [--iterations 2]
 """
 
 from __future__ import annotations
@@ -211,14 +220,124 @@ def _end_to_end(item: str, env_kwargs: dict[str, Any] | None, steps: int, raw_st
     }
 
 
+#: The presets of ``--trainers`` (PPO on the envs with a native vector env), with the env arguments they train on.
+TRAINERS = {
+    "gym4real/microgrid-v0:ppo:paper": {"preset": "default"},
+    "gym4real/dam-v0:ppo:paper": None,
+    "gym4real/trading-v0:ppo:hourly": None,  # the paper preset's tick data is not in the offline data folder
+}
+
+
+class _Clock:
+    """CPU and wall seconds of the blocks timed with :meth:`time`, summed per name."""
+
+    def __init__(self) -> None:
+        self.cpu: dict[str, float] = {}
+        self.wall: dict[str, float] = {}
+
+    @contextlib.contextmanager
+    def time(self, name: str) -> Iterator[None]:
+        cpu, wall = time.process_time(), time.perf_counter()
+        yield
+        self.cpu[name] = self.cpu.get(name, 0.0) + time.process_time() - cpu
+        self.wall[name] = self.wall.get(name, 0.0) + time.perf_counter() - wall
+
+
+def _sb3_iterations(env_id: str, hp: dict[str, Any], iterations: int) -> _Clock:
+    """Rollouts and updates of SB3's PPO as :func:`gym4real.rl.sb3.train_sb3` builds it (the first untimed)."""
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    from gym4real.rl.sb3 import _algorithm, _rescale, _sb3
+    from gym4real.rl.vec_env import TrainingVecEnv
+
+    _sb3()  # torch on one thread
+    venv = make_vec_env(
+        env_id,
+        n_envs=hp["n_envs"],
+        seed=0,
+        env_kwargs={"render_mode": None, **hp["env_kwargs"]},
+        vec_env_cls=TrainingVecEnv,
+        wrapper_class=_rescale,
+    )
+    if hp.get("normalize_obs"):
+        gamma = hp["hyperparams"].get("gamma", 0.99)
+        venv = VecNormalize(venv, norm_obs=True, norm_reward=False, clip_obs=hp["clip_obs"], gamma=gamma)
+    model = _algorithm(PPO, hp, venv, 0, None)
+    total, callback = model._setup_learn(hp["total_timesteps"], callback=None)
+    clock = _Clock()
+    for i in range(iterations + 1):
+        timed = clock.time if i else lambda name: contextlib.nullcontext()
+        with timed("rollout"):
+            model.collect_rollouts(model.env, callback, model.rollout_buffer, model.n_steps)
+        model._update_current_progress_remaining(model.num_timesteps, total)
+        with timed("update"):
+            model.train()
+    venv.close()
+    return clock
+
+
+def _jax_iterations(env_id: str, hp: dict[str, Any], iterations: int) -> _Clock:
+    """Rollouts and updates of the JAX trainer (the first, which compiles, untimed)."""
+    from gym4real.rl.jax_ppo import JaxPPO
+
+    trainer = JaxPPO(env_id, hp, 0)
+    trainer.start_episodes()
+    clock = _Clock()
+    for i in range(iterations + 1):
+        timed = clock.time if i else lambda name: contextlib.nullcontext()
+        with timed("rollout"):
+            data = trainer.collect()
+        with timed("update"):
+            trainer.learn(data)
+    trainer.close()
+    return clock
+
+
+def _trainers(item: str, env_kwargs: dict[str, Any] | None, iterations: int, raw_steps: int) -> list[dict[str, Any]]:
+    env_id, algo, preset = item.split(":")
+    hp = load_preset(env_id, algo, preset)
+    if env_kwargs is not None:
+        hp = {**hp, "env_kwargs": env_kwargs}
+    steps = hp["hyperparams"]["n_steps"] * hp["n_envs"]
+    clocks = {"sb3": _sb3_iterations(env_id, hp, iterations), "jax": _jax_iterations(env_id, hp, iterations)}
+    raw = _raw_rate(env_id, hp["env_kwargs"], raw_steps)
+    rows = []
+    for trainer, clock in clocks.items():
+        rollout, update = clock.cpu["rollout"] / iterations, clock.cpu["update"] / iterations
+        rows.append(
+            {
+                "preset": item,
+                "trainer": trainer,
+                "steps/iteration": steps,
+                "rollout CPU s": rollout,
+                "update CPU s": update,
+                "rollout wall s": clock.wall["rollout"] / iterations,
+                "update wall s": clock.wall["update"] / iterations,
+                "train steps/CPU s": steps / (rollout + update),
+                "raw steps/CPU s": raw,
+                "ratio": steps / (rollout + update) / raw,
+            }
+        )
+    return rows
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--presets", default=None, help="comma-separated ENV:ALGO:PRESET")
     parser.add_argument("--steps", type=int, default=None, help="environment steps per measurement")
     parser.add_argument("--end-to-end", action="store_true", help="training throughput with evaluation")
-    parser.add_argument("--json", help="(--end-to-end) also write the rows to this JSON file")
+    parser.add_argument("--json", help="(--end-to-end, --trainers) also write the rows to this JSON file")
+    parser.add_argument("--trainers", action="store_true", help="PPO's SB3 and JAX trainers side by side")
+    parser.add_argument("--iterations", type=int, default=2, help="(--trainers) timed iterations per trainer")
     args = parser.parse_args()
     gym4real.register_envs()
+    if args.trainers:
+        items = args.presets.split(",") if args.presets else list(TRAINERS)
+        rows = [r for item in items for r in _trainers(item, TRAINERS.get(item), args.iterations, 20_000)]
+        report(rows, list(rows[0]), 3, args.json)
+        return
     if args.end_to_end:
         items = args.presets.split(",") if args.presets else list(END_TO_END)
         steps = args.steps or 16_384

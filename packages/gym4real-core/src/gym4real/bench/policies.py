@@ -3,8 +3,9 @@
 A policy string is one of:
 
 - a baseline name (``longest_first``);
-- a model file, read as data (never unpickled): ``ppo:PATH``, ``dqn:PATH``, ``qlearning:PATH``,
-  ``sarsa:PATH``, or ``sb3:ALGO:PATH`` for a Stable-Baselines3 model of any algorithm SB3 ships (and of
+- a model file, read as data (never unpickled): ``ppo:PATH``, ``ppo-jax:PATH`` (the JAX trainer's
+  ``model.npz``), ``dqn:PATH``, ``qlearning:PATH``, ``sarsa:PATH``, or ``sb3:ALGO:PATH`` for a
+  Stable-Baselines3 model of any algorithm SB3 ships (and of
   sb3-contrib's CrossQ, QRDQN, TQC, TRPO);
 - ``module:attr``, your own code, which is imported and run (trust it as you trust a plugin): a
   function or class is a factory ``factory(env) -> policy`` (``factory(env, seed=S)`` when seeds are
@@ -35,6 +36,7 @@ from gym4real.wrappers.multi_objective import MultiObjective
 #: Prefix of a ``kind:path`` policy string -> ``"module:loader"``; ``loader(env, path)`` returns a policy.
 MODEL_LOADERS: dict[str, str] = {
     "ppo": "gym4real.rl.sb3:load_ppo",
+    "ppo-jax": "gym4real.rl.actor_critic:load_ppo_jax",
     "dqn": "gym4real.rl.sb3:load_dqn",
     "qlearning": "gym4real.rl.tabular:load_policy",
     "sarsa": "gym4real.rl.tabular:load_policy",
@@ -50,9 +52,9 @@ USER_OBJECT = re.compile(r"^[A-Za-z_]\w*(\.[A-Za-z_]\w*)*:[A-Za-z_]\w*(\.[A-Za-z
 
 #: The policy strings, for error messages.
 POLICY_FORMS = (
-    "a baseline name, `ppo:PATH`, `dqn:PATH`, `qlearning:PATH`, `sarsa:PATH`, `sb3:ALGO:PATH` (a Stable-Baselines3 "
-    "model of A2C, DDPG, DQN, PPO, SAC, TD3, or sb3-contrib's CrossQ, QRDQN, TQC, TRPO) or `module:attr` (your own "
-    "factory or policy, imported)"
+    "a baseline name, `ppo:PATH`, `ppo-jax:PATH`, `dqn:PATH`, `qlearning:PATH`, `sarsa:PATH`, `sb3:ALGO:PATH` "
+    "(a Stable-Baselines3 model of A2C, DDPG, DQN, PPO, SAC, TD3, or sb3-contrib's CrossQ, QRDQN, TQC, TRPO) or "
+    "`module:attr` (your own factory or policy, imported)"
 )
 
 

@@ -50,6 +50,7 @@ def _reproduce(args: argparse.Namespace) -> None:
             ray=args.ray,
             storage=args.storage,
             retrain_damaged=args.retrain_damaged,
+            trainer=args.trainer,
         )
     except DamagedRunError as exc:  # the other runs and the page are done: show them, then the error
         print(exc.report)
@@ -104,6 +105,13 @@ def add(sub: Any) -> None:
         action="store_true",
         help="rerun only the stale sections of --out (of the named environments, if any): retrain where the "
         "data or trainer changed, else test the finished runs again",
+    )
+    rep.add_argument(
+        "--trainer",
+        default="sb3",
+        choices=("sb3", "jax"),
+        help="sb3 (the reference trainer) or jax: the budget's PPO runs by the JAX trainer (the `jax` extra), in "
+        "sections of their own (<env>-<budget>-jax, agent ppo-jax)",
     )
     rep.add_argument(
         "--retrain-damaged",

@@ -41,7 +41,7 @@ def train_task(item: Item, relative: str, storage_uri: str) -> str | None:
     with tempfile.TemporaryDirectory(prefix="gym4real-run-") as scratch:
         folder = Path(scratch) / "run"
         storage.download(relative, folder)
-        if finished_run(folder, item.env_id, item.algo, item.preset, item.seed) is not None:
+        if finished_run(folder, item.env_id, item.algo, item.preset, item.seed, item.trainer) is not None:
             return None
         markers = [folder / name for name in MARKERS]
         synced: list[int] = []
@@ -84,7 +84,7 @@ def train_on_ray(
     pending: dict[Any, int] = {}
     try:
         for key, item in enumerate(items):
-            run = finished_run(item.folder, item.env_id, item.algo, item.preset, item.seed)
+            run = finished_run(item.folder, item.env_id, item.algo, item.preset, item.seed, item.trainer)
             if run is not None:
                 outcomes[key] = Outcome(item, run)
                 if progress is not None:
@@ -116,7 +116,7 @@ def _collect(item: Item, store: Storage, out: Path, error: str | None) -> Outcom
     relative = item.folder.resolve().relative_to(out).as_posix()
     if store.local_path(relative) != item.folder.resolve():
         store.download(relative, item.folder)
-    run = finished_run(item.folder, item.env_id, item.algo, item.preset, item.seed)
+    run = finished_run(item.folder, item.env_id, item.algo, item.preset, item.seed, item.trainer)
     if run is None:
         return Outcome(item, None, error or f"{describe_item(item)}: the storage holds no finished run")
     return Outcome(item, run)

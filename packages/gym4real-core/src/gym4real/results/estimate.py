@@ -84,7 +84,7 @@ def estimate(items: Sequence[Item], out: Path) -> list[Estimate]:
     found = []
     for item in items:
         key = (item.env_id, item.algo)
-        if finished_run(item.folder, item.env_id, item.algo, item.preset, item.seed) is not None:
+        if finished_run(item.folder, item.env_id, item.algo, item.preset, item.seed, item.trainer) is not None:
             found.append(Estimate(item, 0.0, "finished"))
         elif same := walls.get((*key, item.preset)):
             found.append(Estimate(item, sum(same) / len(same), f"mean of {len(same)} run(s) measured in {out}"))

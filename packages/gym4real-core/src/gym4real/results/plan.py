@@ -26,15 +26,31 @@ class Item:
     folder: Path
     #: A folder with a damaged file is moved aside and the run trained again (else the run is refused).
     retrain_damaged: bool = False
+    #: The trainer (``sb3``, or ``jax`` for the JAX PPO trainer).
+    trainer: str = "sb3"
 
 
-def plan(env_id: str, budget: str, n_seeds: SeedRequest, out: Path) -> list[Item]:
-    """The training runs of ``env_id`` for ``budget``, in ``out/<env>/<budget>/runs/<algo>/seed<S>``."""
+def plan(env_id: str, budget: str, n_seeds: SeedRequest, out: Path, trainer: str = "sb3") -> list[Item]:
+    """The training runs of ``env_id`` for ``budget``, in ``out/<env>/<budget>/runs/<agent>/seed<S>``.
+
+    ``<agent>`` is the algorithm (``ppo``), or ``ppo-jax`` with ``trainer="jax"``, whose plan is the budget's PPO
+    runs alone (trained by the JAX trainer).
+
+    Raises:
+        ConfigError: No preset for the budget (no PPO preset, with the JAX trainer).
+    """
+    from gym4real.rl.train import label
+
     algos = presets(env_id, budget)
+    if trainer != "sb3":
+        algos = {a: p for a, p in algos.items() if a == "ppo"}
     if not algos:
-        raise ConfigError(f"`{env_id}` registers no training preset for the `{budget}` budget")
+        what = "PPO preset" if trainer != "sb3" else "training preset"
+        raise ConfigError(f"`{env_id}` registers no {what} for the `{budget}` budget")
     base = out / slug(env_id) / budget / "runs"
     run_seeds = seeds(env_id, budget, n_seeds)
     return [
-        Item(env_id, algo, preset, s, base / algo / f"seed{s}") for algo, preset in algos.items() for s in run_seeds
+        Item(env_id, algo, preset, s, base / label(algo, trainer) / f"seed{s}", trainer=trainer)
+        for algo, preset in algos.items()
+        for s in run_seeds
     ]

@@ -87,7 +87,7 @@ def runs_table(runs: list[TrainingRun]) -> pd.DataFrame:
         kept = selected_checkpoint(curve, float(hp.get("min_improvement", 0.0))) if len(curve) else None
         rows.append(
             {
-                "algo": run.algo,
+                "algo": run.agent,
                 "seed": run.seed,
                 "preset": run.preset,
                 "total_timesteps": hp.get("total_timesteps"),

@@ -77,14 +77,16 @@ def publish_models(runs: list[TrainingRun], section: Path, budget: str) -> list[
     target = section / FOLDER
     shutil.rmtree(target, ignore_errors=True)
     listing = []
-    for run in sorted(runs, key=lambda r: (r.algo, r.seed)):
-        name = f"{run.algo}-seed{run.seed}"
+    for run in sorted(runs, key=lambda r: (r.agent, r.seed)):
+        name = f"{run.agent}-seed{run.seed}"
         files = [_publish_file(p, target / name / p.name) for p in model_files(run)]
         size = sum(p.stat().st_size for p in files)
+        trainer = "" if run.trainer == "sb3" else f" --trainer {run.trainer}"
         published = size <= MAX_BYTES
         record = json.loads((run.model_path.parent / "run.json").read_text())
         entry: dict[str, Any] = {
             "algo": run.algo,
+            **({} if run.trainer == "sb3" else {"trainer": run.trainer}),
             "seed": run.seed,
             "preset": run.preset,
             "trained_by": record.get("versions", {}).get("gym4real (git)", "not recorded"),
@@ -92,8 +94,8 @@ def publish_models(runs: list[TrainingRun], section: Path, budget: str) -> list[
             "bytes": size,
             "published": published,
             "retrain": (
-                f"gym4real train {run.env_id} --algo {run.algo} --preset {run.preset} --seed {run.seed} "
-                f"--out runs/{slug(run.env_id)}/{budget}/{run.algo}/seed{run.seed}"
+                f"gym4real train {run.env_id} --algo {run.algo}{trainer} --preset {run.preset} --seed {run.seed} "
+                f"--out runs/{slug(run.env_id)}/{budget}/{run.agent}/seed{run.seed}"
             ),
         }
         if run.model_path.name == QTABLE:
@@ -107,7 +109,7 @@ def publish_models(runs: list[TrainingRun], section: Path, budget: str) -> list[
             path = f"{section.name}/{FOLDER}/{name}/{run.model_path.name}"
             entry["path"] = f"{FOLDER}/{name}/{run.model_path.name}"
             entry["evaluate"] = (
-                f"gym4real evaluate published-{run.algo}={run.algo}:{path} --envs {run.env_id} "
+                f"gym4real evaluate published-{run.agent}={run.agent}:{path} --envs {run.env_id} "
                 f"--seeds {listed_seeds_flag([run.seed])} (in the page folder)"
             )
         else:

@@ -59,9 +59,12 @@ class EnvReport:
     claims: list[dict[str, Any]]
 
 
-def results_folder(out: Path, env_id: str, budget: str) -> Path:
-    """``OUT/<env>-<budget>``: the tested results of one env and budget (its runs are in ``OUT/<env>/<budget>``)."""
-    return out / f"{slug(env_id)}-{budget}"
+def results_folder(out: Path, env_id: str, budget: str, trainer: str = "sb3") -> Path:
+    """``OUT/<env>-<budget>``: the tested results of one env and budget (its runs are in ``OUT/<env>/<budget>``).
+
+    A section of the JAX trainer's runs is ``OUT/<env>-<budget>-jax``.
+    """
+    return out / (f"{slug(env_id)}-{budget}" + ("" if trainer == "sb3" else f"-{trainer}"))
 
 
 def pooled(result: BenchmarkResult, groups: dict[str, list[str]]) -> BenchmarkResult:
@@ -97,7 +100,7 @@ def episodes_table(result: BenchmarkResult, baselines: list[str], runs: list[Tra
 
     Columns ``policy, seed, episode, objective, return``, then one per reward component (per-episode sums).
     """
-    named = [(name, name, None) for name in baselines] + [(r.algo, r.policy, r.seed) for r in runs]
+    named = [(name, name, None) for name in baselines] + [(r.agent, r.policy, r.seed) for r in runs]
     components = sorted({c for name in result.components.values() for c in name})
     rows = []
     for policy, key, seed in named:
@@ -130,8 +133,8 @@ def _curves(runs: list[TrainingRun], folder: Path) -> None:
     frames = []
     fig, ax = plt.subplots(figsize=(9.5, 4.2))
     unit = "timesteps"
-    for i, algo in enumerate(sorted({r.algo for r in runs})):
-        mine = [r for r in runs if r.algo == algo and r.curve_csv.exists()]
+    for i, algo in enumerate(sorted({r.agent for r in runs})):
+        mine = [r for r in runs if r.agent == algo and r.curve_csv.exists()]
         curves = [pd.read_csv(r.curve_csv) for r in mine]
         if not curves:
             continue
@@ -194,7 +197,7 @@ def reproduce_env(
     """
     from gym4real.bench import plots
 
-    folder = results_folder(out, env_id, budget)
+    folder = results_folder(out, env_id, budget, runs[0].trainer if runs else "sb3")
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "error.txt").unlink(missing_ok=True)
     spec = protocol(env_id)
@@ -214,7 +217,7 @@ def reproduce_env(
         "protocol": spec.description,
         "step_unit": spec.step_unit,
         "seeds": sorted({r.seed for r in runs}),
-        "presets": {r.algo: r.preset for r in runs},
+        "presets": {r.agent: r.preset for r in runs},
         "test_wall_time_s": test_wall,
         "code_version": versions.code_version(),
         "versions": versions.versions(),
@@ -230,7 +233,7 @@ def reproduce_env(
         workspace.heatmap_figure(folder, env_id)
     groups = {name: [name] for name in baselines}
     for run in runs:
-        groups.setdefault(run.algo, []).append(run.policy)
+        groups.setdefault(run.agent, []).append(run.policy)
     plots.save_figures(pooled(result, groups), folder)
     _curves(runs, folder)
     report["imported"] = provenance.imported(runs)
@@ -293,6 +296,7 @@ def reproduce(
     ray: bool = False,
     storage: str | None = None,
     retrain_damaged: bool = False,
+    trainer: str = "sb3",
 ) -> str:
     """Reproduce the paper's results of ``env_ids``; return a text report (tables and claim verdicts).
 
@@ -312,6 +316,8 @@ def reproduce(
         storage: With ``ray``: where the workers keep the run folders (default ``out``).
         retrain_damaged: Move a run folder with a damaged file aside and train that run again; without it,
             such a run is refused (its folder left untouched) and :class:`DamagedRunError` raised at the end.
+        trainer: ``sb3`` (the reference), or ``jax``: the budget's PPO runs by the JAX trainer, in sections of
+            their own (``<env>-<budget>-jax``, agent ``ppo-jax``).
 
     Raises:
         DamagedRunError: A run folder holds a damaged file (after the other runs and the page are done;
@@ -327,7 +333,7 @@ def reproduce(
         try:
             plans[env_id] = [
                 dataclasses.replace(item, retrain_damaged=retrain_damaged)
-                for item in plan(env_id, budget, n_seeds, out)
+                for item in plan(env_id, budget, n_seeds, out, trainer)
             ]
         except Gym4RealError as exc:
             errors[env_id] = " ".join(str(exc).split())
@@ -351,6 +357,8 @@ def reproduce(
             continue
         flag = seeds_flag(env_id, budget, list(dict.fromkeys(i.seed for i in items)))
         command = f"gym4real reproduce {env_id} --budget {budget} --seeds {flag} --out {_shown(out)}"
+        if trainer != "sb3":
+            command += f" --trainer {trainer}"
         tests[env_id] = ([o.run for o in mine if o.run is not None], command)
     lines = []
     for env_id, report in tested_envs(tests, budget, out, jobs, bar).items():
@@ -366,7 +374,7 @@ def reproduce(
             lines.append(f"claim: {c['text']} -> {c['verdict']}")
         lines.append("")
     for env_id, error in errors.items():
-        folder = results_folder(out, env_id, budget)
+        folder = results_folder(out, env_id, budget, trainer)
         folder.mkdir(parents=True, exist_ok=True)
         (folder / "error.txt").write_text(error + "\n")
         lines.append(f"== {env_id} ({budget}): not run: {error}")

@@ -33,7 +33,7 @@ from gym4real.core.registry import slug
 from gym4real.results.plan import Item
 from gym4real.rl.progress import PlanProgress, Progress
 from gym4real.results.run_files import check_run_folder
-from gym4real.rl.train import TrainingRun, finished_run, train
+from gym4real.rl.train import TrainingRun, finished_run, label, train
 
 #: Environment variables that limit a worker's numerical libraries to one thread; a worker process
 #: gets them at its start, before it imports numpy, torch or numba.
@@ -70,8 +70,8 @@ def describe_error(exc: BaseException) -> str:
 
 
 def describe_item(item: Item) -> str:
-    """``dam-v0 ppo seed 3``."""
-    return f"{slug(item.env_id)} {item.algo} seed {item.seed}"
+    """``dam-v0 ppo seed 3`` (``ppo-jax`` for the JAX trainer)."""
+    return f"{slug(item.env_id)} {label(item.algo, item.trainer)} seed {item.seed}"
 
 
 def available_cpus() -> int:
@@ -88,10 +88,10 @@ def run_item(item: Item, progress: Progress | None = None) -> TrainingRun:
         DamagedRunError: A file of the run's folder cannot be read (unless ``item.retrain_damaged``).
     """
     check_run_folder(item.folder, describe_item(item), item.retrain_damaged)
-    run = finished_run(item.folder, item.env_id, item.algo, item.preset, item.seed)
+    run = finished_run(item.folder, item.env_id, item.algo, item.preset, item.seed, item.trainer)
     if run is not None:
         return run
-    return train(item.env_id, item.algo, item.preset, item.seed, item.folder, progress or False)
+    return train(item.env_id, item.algo, item.preset, item.seed, item.folder, progress or False, item.trainer)
 
 
 def train_plan(items: Sequence[Item], progress: PlanProgress | None = None, jobs: int = 1) -> list[Outcome]:

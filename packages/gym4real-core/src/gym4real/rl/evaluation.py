@@ -14,13 +14,22 @@ slower, see ``benchmarks/bench_training.py``).
 from __future__ import annotations
 
 import contextlib
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import gymnasium as gym
 import numpy as np
 
-if TYPE_CHECKING:
-    from gym4real.rl.sb3 import NormalizedPolicy
+
+class BatchPolicy(Protocol):
+    """A deterministic policy that acts on a batch of observations (first axis) in one call.
+
+    :class:`~gym4real.rl.sb3.NormalizedPolicy` (SB3 models) and :class:`~gym4real.rl.actor_critic.Model`
+    (the JAX trainer's) are.
+    """
+
+    def actions(self, obs: Any) -> np.ndarray:
+        """The deterministic action of each observation."""
+
 
 #: The fewest episodes evaluated in a native batched env (below, single envs step faster).
 NATIVE_MIN_EPISODES = 32
@@ -33,7 +42,7 @@ def _stack(observations: list[Any]) -> Any:
 
 
 class BatchEvaluation:
-    """Seeded evaluation episodes of one environment, run as a batch by a :class:`NormalizedPolicy`.
+    """Seeded evaluation episodes of one environment, run as a batch by a :class:`BatchPolicy`.
 
     Args:
         env_id: A registered id.
@@ -62,7 +71,7 @@ class BatchEvaluation:
             self.envs = [gym.make(env_id, **env_kwargs) for _ in range(episodes)]
             self.single_action_space = self.envs[0].action_space
 
-    def run(self, policy: NormalizedPolicy) -> list[np.ndarray]:
+    def run(self, policy: BatchPolicy) -> list[np.ndarray]:
         """Run every episode with ``policy``; return each episode's per-step rewards.
 
         The reward of a step is its ``info["scalar_reward"]`` where the env gives one (vector rewards), as
@@ -70,7 +79,7 @@ class BatchEvaluation:
         """
         return self._run_vector(policy) if self.vector is not None else self._run_envs(policy)
 
-    def _run_envs(self, policy: NormalizedPolicy) -> list[np.ndarray]:
+    def _run_envs(self, policy: BatchPolicy) -> list[np.ndarray]:
         obs = [env.reset(seed=self.seed + i)[0] for i, env in enumerate(self.envs)]
         rewards: list[list[float]] = [[] for _ in self.envs]
         active = list(range(len(self.envs)))
@@ -85,7 +94,7 @@ class BatchEvaluation:
             active = still
         return [np.asarray(r) for r in rewards]
 
-    def _run_vector(self, policy: NormalizedPolicy) -> list[np.ndarray]:
+    def _run_vector(self, policy: BatchPolicy) -> list[np.ndarray]:
         assert self.vector is not None
         obs, _ = self.vector.reset(seed=self.seed)
         rewards: list[list[float]] = [[] for _ in range(self.episodes)]

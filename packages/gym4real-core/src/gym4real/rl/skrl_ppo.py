@@ -29,41 +29,9 @@ from stable_baselines3 import PPO
 from stable_baselines3.common.utils import update_learning_rate
 
 from gym4real.rl.schedules import KLAdaptiveRate
+from gym4real.rl.value_scaler import RunningStandardScaler
 
-
-class RunningStandardScaler:
-    """skrl's ``RunningStandardScaler`` of one value (its defaults: epsilon 1e-8, clip threshold 5).
-
-    The statistics start at mean 0, variance 1 and count 1, and each batch is merged with the parallel
-    variance algorithm, the batch's variance taken with Bessel's correction as ``torch.var`` does.
-    """
-
-    def __init__(self, mean: float = 0.0, var: float = 1.0, count: float = 1.0) -> None:
-        """Start from saved statistics (a resumed run), else from skrl's initial ones."""
-        self.mean, self.var, self.count = float(mean), float(var), float(count)
-        self.epsilon, self.clip = 1e-8, 5.0
-
-    def update(self, x: np.ndarray) -> None:
-        """Merge a batch of values into the running statistics."""
-        n = x.size
-        delta = float(np.mean(x)) - self.mean
-        total = self.count + n
-        m2 = self.var * self.count + float(np.var(x, ddof=1)) * n + delta**2 * self.count * n / total
-        self.mean += delta * n / total
-        self.var = m2 / total
-        self.count = total
-
-    def standardize(self, x: np.ndarray) -> np.ndarray:
-        """``clip((x - mean) / (std + epsilon), -5, 5)``."""
-        return np.clip((x - self.mean) / (np.sqrt(self.var) + self.epsilon), -self.clip, self.clip).astype(x.dtype)
-
-    def restore(self, x: th.Tensor) -> th.Tensor:
-        """A standardised value back in reward units: ``std * clip(x, -5, 5) + mean``."""
-        return float(np.sqrt(self.var)) * th.clamp(x, -self.clip, self.clip) + self.mean
-
-    def state(self) -> list[float]:
-        """``[mean, var, count]``, as a checkpoint saves them."""
-        return [self.mean, self.var, self.count]
+__all__ = ["RunningStandardScaler", "SkrlPPO"]
 
 
 class SkrlPPO(PPO):  # type: ignore[misc]

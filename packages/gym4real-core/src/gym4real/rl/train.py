@@ -1,6 +1,7 @@
 """``gym4real train``: one entry point for every algorithm and registered preset.
 
-A run folder holds ``settings.json`` (what is trained: env, algo, preset, seed and every setting), the
+A run folder holds ``settings.json`` (what is trained: env, algo, preset, seed, every setting and, for the
+JAX trainer, ``trainer: jax``), the
 model, the learning curve, a checkpoint while the run is unfinished, and ``run.json`` once it is finished
 (wall time, environment steps, versions, the distributions it imported, the CPU model of the machine that
 finished it and its resumes). Training in a folder that holds an unfinished run of the same
@@ -24,7 +25,21 @@ from gym4real.rl.imported import imported_distributions
 from gym4real.rl.presets import load_preset
 from gym4real.rl.progress import Progress
 
-_VERSIONS = ("gym4real-core", "gymnasium", "numpy", "stable-baselines3", "torch", "numba")
+_VERSIONS = ("gym4real-core", "gymnasium", "numpy", "stable-baselines3", "torch", "numba", "jax", "jaxlib", "optax")
+
+#: The trainers of PPO: Stable-Baselines3 (the reference, extra ``rl``) and JAX (extra ``jax``).
+TRAINERS = ("sb3", "jax")
+
+#: The policy kind of a model trained by each trainer other than SB3 (``ppo-jax:PATH``).
+TRAINER_KINDS = {"jax": "ppo-jax"}
+
+
+def label(algo: str, trainer: str = "sb3") -> str:
+    """An agent's name in run folders, records and reports: the algorithm, with a trainer other than SB3's.
+
+    ``ppo`` (SB3), ``ppo-jax`` (the JAX trainer), ``qlearning``, ...
+    """
+    return TRAINER_KINDS.get(trainer, algo)
 
 
 @dataclass(frozen=True)
@@ -40,11 +55,17 @@ class TrainingRun:
     wall_time_s: float
     env_steps: int
     eval_steps: int
+    trainer: str = "sb3"
+
+    @property
+    def agent(self) -> str:
+        """The agent's name in reports (:func:`label`: ``ppo``, ``ppo-jax``)."""
+        return label(self.algo, self.trainer)
 
     @property
     def policy(self) -> str:
-        """The bench policy string of the trained model (``ppo:DIR/model.zip``)."""
-        return f"{self.algo}:{self.model_path}"
+        """The bench policy string of the trained model (``ppo:DIR/model.zip``, ``ppo-jax:DIR/model.npz``)."""
+        return f"{self.agent}:{self.model_path}"
 
     @property
     def steps_per_s(self) -> float:
@@ -52,10 +73,13 @@ class TrainingRun:
         return (self.env_steps + self.eval_steps) / self.wall_time_s if self.wall_time_s > 0 else float("nan")
 
 
-def default_out(env_id: str, algo: str, preset: str, seed: int) -> Path:
-    """``runs/<env>/<algo>-<preset>-seed<S>``, ``<env>`` the id's name (``dam-v0``), as ``{env}`` of ``evaluate``."""
+def default_out(env_id: str, algo: str, preset: str, seed: int, trainer: str = "sb3") -> Path:
+    """``runs/<env>/<agent>-<preset>-seed<S>``, ``<env>`` the id's name (``dam-v0``), as ``{env}`` of ``evaluate``.
+
+    ``<agent>`` is :func:`label`: ``ppo``, or ``ppo-jax`` for the JAX trainer.
+    """
     name = Path(preset).stem if is_preset_file(preset) else preset
-    return Path("runs") / slug(env_id) / f"{algo}-{name}-seed{seed}"
+    return Path("runs") / slug(env_id) / f"{label(algo, trainer)}-{name}-seed{seed}"
 
 
 def versions() -> dict[str, str]:
@@ -76,19 +100,25 @@ def versions() -> dict[str, str]:
     return found
 
 
-def _settings(env_id: str, algo: str, preset: str, seed: int, hp: dict[str, Any]) -> dict[str, Any]:
-    return json.loads(
-        json.dumps({"env_id": env_id, "algo": algo, "preset": preset, "seed": seed, "hyperparameters": hp})
-    )
+def _settings(env_id: str, algo: str, preset: str, seed: int, hp: dict[str, Any], trainer: str) -> dict[str, Any]:
+    """What a run trains; ``trainer`` only where it is not SB3 (the settings of SB3 runs stay as they were)."""
+    settings = {"env_id": env_id, "algo": algo, "preset": preset, "seed": seed, "hyperparameters": hp}
+    if trainer != "sb3":
+        settings["trainer"] = trainer
+    return json.loads(json.dumps(settings))
 
 
-def finished_run(folder: Path, env_id: str, algo: str, preset: str, seed: int) -> TrainingRun | None:
-    """The finished run in ``folder`` if it trained exactly these settings, else None."""
+def finished_run(
+    folder: Path, env_id: str, algo: str, preset: str, seed: int, trainer: str = "sb3"
+) -> TrainingRun | None:
+    """The finished run in ``folder`` if it trained exactly these settings (by this trainer), else None."""
     record = folder / "run.json"
     if not record.exists():
         return None
     data = json.loads(record.read_text())
-    expected = _settings(env_id, algo, preset, seed, load_preset(env_id, algo, preset))
+    expected = _settings(env_id, algo, preset, seed, load_preset(env_id, algo, preset), trainer)
+    if data.get("trainer", "sb3") != trainer:
+        return None
     if {k: data.get(k) for k in expected} != expected:
         return None
     model = folder / data["model"]
@@ -104,6 +134,7 @@ def finished_run(folder: Path, env_id: str, algo: str, preset: str, seed: int) -
         data["wall_time_s"],
         data["env_steps"],
         data["eval_steps"],
+        trainer,
     )
 
 
@@ -114,6 +145,7 @@ def train(
     seed: int = 0,
     out: str | Path | None = None,
     progress: bool | Progress = False,
+    trainer: str = "sb3",
 ) -> TrainingRun:
     """Train an agent with a registered preset and write the model and the learning curve.
 
@@ -125,15 +157,22 @@ def train(
         out: Output folder (default ``runs/<env>/<algo>-<preset>-seed<S>``); an unfinished run of the same
             settings there is resumed from its last checkpoint.
         progress: Show a progress bar (True), or a function called with (done, total).
+        trainer: ``sb3`` (Stable-Baselines3, every algorithm but the tabular ones) or ``jax`` (PPO on an env
+            with a native vector env, :mod:`gym4real.rl.jax_ppo`; the ``jax`` extra).
 
     Raises:
-        ConfigError: ``out`` holds a run of other settings.
+        ConfigError: ``out`` holds a run of other settings, or an unknown trainer or one that does not
+            train ``algo``.
     """
+    if trainer not in TRAINERS:
+        raise ConfigError(f"unknown trainer `{trainer}`; expected one of {list(TRAINERS)}")
+    if trainer == "jax" and algo != "ppo":
+        raise ConfigError(f"the JAX trainer trains PPO, not `{algo}`: use `--trainer sb3`")
     hp = load_preset(env_id, algo, preset)
     check_no_test_overlap(env_id, algo, preset)
-    folder = Path(out) if out else default_out(env_id, algo, preset, seed)
+    folder = Path(out) if out else default_out(env_id, algo, preset, seed, trainer)
     folder.mkdir(parents=True, exist_ok=True)
-    settings = _settings(env_id, algo, preset, seed, hp)
+    settings = _settings(env_id, algo, preset, seed, hp, trainer)
     settings_path = folder / "settings.json"
     if settings_path.exists() and json.loads(settings_path.read_text()) != settings:
         raise ConfigError(
@@ -151,7 +190,8 @@ def train(
     if progress is True:
         from tqdm.auto import tqdm
 
-        bar = tqdm(desc=f"{algo} {env_id}", unit="episode" if algo in ("qlearning", "sarsa") else "step")
+        unit = "episode" if algo in ("qlearning", "sarsa") else "step"
+        bar = tqdm(desc=f"{label(algo, trainer)} {env_id}", unit=unit)
 
     def report(done: int, total: int) -> None:
         nonlocal last_write
@@ -169,6 +209,10 @@ def train(
         from gym4real.rl.tabular import train_tabular
 
         model, steps = train_tabular(env_id, hp, seed, folder, report)
+    elif trainer == "jax":
+        from gym4real.rl.jax_ppo import train_jax
+
+        model, steps = train_jax(env_id, hp, seed, folder, report)
     else:
         from gym4real.rl.sb3 import train_sb3
 
@@ -177,9 +221,12 @@ def train(
         bar.close()
     wall = previous + time.perf_counter() - start
     timing.unlink(missing_ok=True)
-    run = TrainingRun(env_id, algo, preset, seed, model, folder / "curve.csv", wall, steps["train"], steps["eval"])
+    run = TrainingRun(
+        env_id, algo, preset, seed, model, folder / "curve.csv", wall, steps["train"], steps["eval"], trainer
+    )
     record = {
         **settings,
+        **({} if algo in ("qlearning", "sarsa") else {"trainer": trainer}),
         "model": model.name,
         "wall_time_s": wall,
         "env_steps": steps["train"],

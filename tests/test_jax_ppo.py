@@ -1,0 +1,535 @@
+"""The JAX PPO trainer (issue 43): each of SB3's semantics on the same batch, resume, determinism, model files."""
+
+from __future__ import annotations
+
+import inspect
+import json
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+pytest.importorskip("jax")
+torch = pytest.importorskip("torch")
+sb3 = pytest.importorskip("stable_baselines3")
+
+import jax  # noqa: E402
+import jax.numpy as jnp  # noqa: E402
+from stable_baselines3.common.logger import configure  # noqa: E402
+
+import gym4real  # noqa: E402
+from gym4real.core.errors import ConfigError, PolicyError  # noqa: E402
+from gym4real.rl import rollout_kernel  # noqa: E402
+from gym4real.rl.actor_critic import (  # noqa: E402
+    ACTION_GAIN,
+    HIDDEN_GAIN,
+    VALUE_GAIN,
+    Model,
+    architecture,
+    initial_parameters,
+    load,
+    mlp,
+    network,
+)
+from gym4real.rl.jax_ppo import PPO_DEFAULTS, JaxPPO, jax_modules  # noqa: E402
+from gym4real.rl.jax_update import UpdateSettings, make_update, optimizer  # noqa: E402
+from gym4real.rl.presets import load_preset  # noqa: E402
+from gym4real.rl.schedules import KLAdaptive, KLAdaptiveRate  # noqa: E402
+from gym4real.rl.train import train  # noqa: E402
+
+DAM = "gym4real/dam-v0"
+
+#: A tiny dam run: two copies of 20-day episodes (autoresets inside every rollout), four iterations.
+TINY_DAM = """
+algo: ppo
+total_timesteps: 256
+n_envs: 2
+normalize_obs: true
+clip_obs: 5.0
+value_scaler: true
+policy_kwargs: {net_arch: [8, 8], log_std_init: -0.5}
+hyperparams:
+  learning_rate: {schedule: kl_adaptive, initial: 1.0e-3, kl_threshold: 0.008}
+  n_steps: 32
+  batch_size: 24
+  n_epochs: 2
+  gamma: 0.995
+env_kwargs: {preset: train, sim_horizon: 20}
+eval_env_kwargs: {preset: validation, sim_horizon: 10}
+eval_freq: 128
+eval_episodes: 2
+"""
+
+
+def _tiny(tmp_path: Path, text: str = TINY_DAM) -> str:
+    path = tmp_path / "tiny.yaml"
+    path.write_text(text)
+    return str(path)
+
+
+# -- SB3's settings and initialisation --------------------------------------------------------------
+
+
+def test_ppo_defaults_are_sb3s() -> None:
+    defaults = {k: p.default for k, p in inspect.signature(sb3.PPO.__init__).parameters.items()}
+    assert {k: defaults[k] for k in PPO_DEFAULTS} == PPO_DEFAULTS
+
+
+def _sb3_ppo(env_id: str, **kwargs: Any) -> Any:
+    model = sb3.PPO("MlpPolicy", gym.make(env_id), device="cpu", seed=0, **kwargs)
+    model.set_logger(configure(None, []))
+    return model
+
+
+def _params_of(model: Any) -> dict[str, np.ndarray]:
+    """The SB3 policy's parameters under the trainer's names (weights transposed to inputs x outputs)."""
+    state = {k: v.detach().numpy() for k, v in model.policy.state_dict().items()}
+    params: dict[str, np.ndarray] = {}
+    for net, torch_net, head in (("pi", "policy_net", "action_net"), ("vf", "value_net", "value_net")):
+        layers = sorted({int(k.split(".")[2]) for k in state if k.startswith(f"mlp_extractor.{torch_net}.")})
+        for i, layer in enumerate(layers):
+            params[f"{net}/{i}/w"] = state[f"mlp_extractor.{torch_net}.{layer}.weight"].T.copy()
+            params[f"{net}/{i}/b"] = state[f"mlp_extractor.{torch_net}.{layer}.bias"].copy()
+        params[f"{net}/out/w"] = state[f"{head}.weight"].T.copy()
+        params[f"{net}/out/b"] = state[f"{head}.bias"].copy()
+    if "log_std" in state:
+        params["log_std"] = state["log_std"].copy()
+    return params
+
+
+@pytest.mark.parametrize("env_id", ["Pendulum-v1", "CartPole-v1"])
+def test_initial_parameters_are_sb3s_orthogonal_initialisation(env_id: str) -> None:
+    kwargs = {"net_arch": [16, 8], "log_std_init": -1.0}
+    model = _sb3_ppo(env_id, policy_kwargs=kwargs if env_id == "Pendulum-v1" else {"net_arch": [16, 8]})
+    env = gym.make(env_id)
+    arch = architecture(env.observation_space, env.action_space, kwargs)
+    ours, theirs = initial_parameters(arch, -1.0, seed=3), _params_of(model)
+    assert {k: v.shape for k, v in ours.items()} == {k: v.shape for k, v in theirs.items()}
+    for name, w in ours.items():
+        if name.endswith("/b"):
+            assert not w.any() and not theirs[name].any()
+            continue
+        if name == "log_std":
+            np.testing.assert_array_equal(w, theirs[name])
+            continue
+        gain = ACTION_GAIN if name == "pi/out/w" else VALUE_GAIN if name == "vf/out/w" else HIDDEN_GAIN
+        for matrix in (w, theirs[name]):  # orthogonal rows or columns (the fewer), times the gain
+            gram = matrix.T @ matrix if matrix.shape[0] >= matrix.shape[1] else matrix @ matrix.T
+            np.testing.assert_allclose(gram, gain**2 * np.eye(len(gram)), atol=1e-5)
+
+
+def test_the_three_forward_passes_agree() -> None:
+    env = gym.make("Pendulum-v1")
+    arch = architecture(env.observation_space, env.action_space, {"net_arch": [16, 8]})
+    params = initial_parameters(arch, 0.0, seed=1)
+    params["pi/out/w"] = params["pi/out/w"] * 100  # heads of a trained size
+    x = np.random.default_rng(0).standard_normal((5, 3)).astype(np.float32)
+    weights, biases = network(params, arch, "pi")
+    expected = mlp(weights, biases, x)
+    np.testing.assert_allclose(rollout_kernel._mlp(weights, biases, x), expected, rtol=1e-5, atol=1e-6)
+    from gym4real.rl.jax_update import _mlp
+
+    jparams = {k: jnp.asarray(v) for k, v in params.items()}
+    np.testing.assert_allclose(
+        np.asarray(_mlp(jparams, arch.layers("pi"), jnp.asarray(x))), expected, rtol=1e-5, atol=1e-6
+    )
+
+
+# -- the update against SB3's train() on the same batch ----------------------------------------------
+
+
+def _filled_buffer(model: Any, rng: np.random.Generator) -> dict[str, np.ndarray]:
+    """Fill SB3's rollout buffer with a batch of the policy's own actions (old log-probs perturbed)."""
+    buf = model.rollout_buffer
+    buf.reset()
+    n = buf.buffer_size
+    space = model.observation_space
+    obs = rng.uniform(-1, 1, (n, 1, *space.shape)).astype(np.float32)
+    for t in range(n):
+        with torch.no_grad():
+            tensor = torch.as_tensor(obs[t])
+            actions, values, log_prob = model.policy(tensor)
+        noise = torch.as_tensor(rng.normal(0, 0.3, 1), dtype=torch.float32)
+        buf.add(obs[t], actions.numpy(), rng.normal(0, 1, 1), np.array([t % 17 == 0]), values, log_prob + noise)
+    buf.compute_returns_and_advantage(torch.as_tensor(rng.normal(0, 1, 1)), np.array([False]))
+    return {
+        "obs": buf.observations.reshape(n, -1),
+        "actions": buf.actions.reshape(n, -1),
+        "old_log_prob": buf.log_probs.reshape(n),
+        "old_values": buf.values.reshape(n),
+        "advantages": buf.advantages.reshape(n),
+        "returns": buf.returns.reshape(n),
+        "valid": np.ones(n, dtype=np.float32),
+    }
+
+
+def _settings(model: Any, arch: Any, kl: KLAdaptive | None = None) -> UpdateSettings:
+    vf = model.clip_range_vf(1.0) if model.clip_range_vf is not None else None
+    return UpdateSettings(
+        arch=arch,
+        rows=model.rollout_buffer.buffer_size,
+        n_epochs=model.n_epochs,
+        batch_size=model.batch_size,
+        clip_range=model.clip_range(1.0),
+        clip_range_vf=vf,
+        ent_coef=model.ent_coef,
+        vf_coef=model.vf_coef,
+        max_grad_norm=model.max_grad_norm,
+        normalize_advantage=model.normalize_advantage,
+        kl_adaptive=kl,
+    )
+
+
+def _run_update(model: Any, data: dict[str, np.ndarray], rate: float, kl: KLAdaptive | None = None) -> Any:
+    env = model.get_env()
+    kwargs = {"net_arch": model.policy.net_arch}
+    arch = architecture(env.observation_space, env.action_space, kwargs)
+    params = {k: jnp.asarray(v) for k, v in _params_of(model).items()}
+    update = make_update(_settings(model, arch, kl))
+    out = update(params, optimizer().init(params), jnp.float32(rate), jax.random.PRNGKey(0), data)
+    return out, update
+
+
+@pytest.mark.parametrize(
+    ("env_id", "kwargs"),
+    [
+        ("Pendulum-v1", {"max_grad_norm": 0.05, "ent_coef": 0.01, "clip_range_vf": 0.3}),  # gradients clipped
+        ("Pendulum-v1", {"max_grad_norm": 50.0, "clip_range": 0.1}),  # not clipped
+        ("CartPole-v1", {"max_grad_norm": 0.5, "ent_coef": 0.02}),  # categorical
+    ],
+)
+def test_an_update_equals_sb3s_train_on_the_same_batch(env_id: str, kwargs: dict[str, Any]) -> None:
+    """Losses, advantage normalisation, gradients, clipping and Adam (eps 1e-5) over three epochs.
+
+    One mini-batch per epoch holds every row: the permutation only reorders the rows of a mean.
+    """
+    policy_kwargs = {"net_arch": [16, 8], **({"log_std_init": -0.5} if env_id == "Pendulum-v1" else {})}
+    model = _sb3_ppo(
+        env_id, n_steps=64, batch_size=64, n_epochs=3, learning_rate=3e-3, policy_kwargs=policy_kwargs, **kwargs
+    )
+    data = _filled_buffer(model, np.random.default_rng(7))
+    (params, _, _, _), _ = _run_update(model, data, 3e-3)
+    model.train()
+    after = _params_of(model)
+    assert set(after) == set(params)
+    for name, value in after.items():
+        np.testing.assert_allclose(np.asarray(params[name]), value, rtol=2e-4, atol=2e-6, err_msg=name)
+
+
+@pytest.mark.filterwarnings("ignore:You have specified a mini-batch size")
+def test_invalid_and_padding_rows_weigh_nothing() -> None:
+    """A mini-batch with rows of weight 0 (autoreset steps, the padding of a short last mini-batch, as SB3's
+    16-row last batch of 64 rows in batches of 48) has the loss and gradient of its valid rows alone."""
+    from gym4real.rl.jax_update import losses
+
+    model = _sb3_ppo("Pendulum-v1", n_steps=64, batch_size=48, n_epochs=1, learning_rate=1e-3)
+    data = _filled_buffer(model, np.random.default_rng(2))
+    env = model.get_env()
+    arch = architecture(env.observation_space, env.action_space, {"net_arch": model.policy.net_arch})
+    settings = _settings(model, arch)
+    assert settings.minibatches == 2
+    params = {k: jnp.asarray(v) for k, v in _params_of(model).items()}
+    last = {k: jnp.asarray(v[48:]) for k, v in data.items()}
+    padded = {
+        k: jnp.asarray(np.concatenate([v[48:], np.zeros(32, np.float32) if k == "valid" else v[:32] * 0 + 1e6]))
+        for k, v in data.items()
+    }
+    grad = jax.value_and_grad(losses, has_aux=True)
+    (loss_a, kl_a), grads_a = grad(params, settings, last)
+    (loss_b, kl_b), grads_b = grad(params, settings, padded)
+    assert float(loss_a) == pytest.approx(float(loss_b), rel=1e-6) and float(kl_a) == pytest.approx(float(kl_b))
+    for name in grads_a:
+        np.testing.assert_allclose(np.asarray(grads_a[name]), np.asarray(grads_b[name]), rtol=1e-5, atol=1e-7)
+
+
+def test_the_kl_adaptive_rate_follows_skrl_ppo_epoch_by_epoch() -> None:
+    from gym4real.rl.skrl_ppo import SkrlPPO
+
+    spec = KLAdaptive(schedule="kl_adaptive", initial=3e-3, kl_threshold=1e-4)
+    model = SkrlPPO(
+        "MlpPolicy",
+        gym.make("Pendulum-v1"),
+        rate=KLAdaptiveRate(spec),
+        n_steps=64,
+        batch_size=64,
+        n_epochs=4,
+        policy_kwargs={"net_arch": [16, 8]},
+        device="cpu",
+        seed=0,
+    )
+    model.set_logger(configure(None, []))
+    data = _filled_buffer(model, np.random.default_rng(4))
+    (params, _, rate, kls), _ = _run_update(model, data, spec.initial, spec)
+    model.train()
+    np.testing.assert_allclose(np.asarray(kls), model.epoch_kls, rtol=1e-3)
+    assert model.rate is not None and float(rate) == pytest.approx(model.rate.rate, rel=1e-6)
+    assert float(rate) != spec.initial  # the KLs crossed the band: the rate moved
+    for name, value in _params_of(model).items():
+        np.testing.assert_allclose(np.asarray(params[name]), value, rtol=2e-4, atol=2e-6, err_msg=name)
+
+
+# -- the rollout kernel: statistics, actions, advantages ---------------------------------------------
+
+
+def test_observation_statistics_are_vecnormalizes_without_the_final_observations() -> None:
+    from stable_baselines3.common.running_mean_std import RunningMeanStd
+
+    rng = np.random.default_rng(0)
+    rms = RunningMeanStd(shape=(3,))
+    mean, var, count = np.zeros(3), np.ones(3), np.array([1e-4])
+    out = np.zeros((4, 3), np.float32)
+    for _ in range(5):
+        raw = rng.normal(5, 3, (4, 3)).astype(np.float32)
+        ended = rng.random(4) < 0.3
+        rms.update(raw[~ended])
+        rollout_kernel._observe(raw, ended, (mean, var, count, 10.0, 1e-8), True, out)
+        np.testing.assert_allclose(mean, rms.mean, rtol=1e-6)
+        np.testing.assert_allclose(var, rms.var, rtol=1e-5)
+        assert count[0] == pytest.approx(rms.count)
+        expected = np.clip((raw - rms.mean) / np.sqrt(rms.var + 1e-8), -10, 10).astype(np.float32)
+        np.testing.assert_allclose(out, expected, rtol=1e-5, atol=1e-6)
+
+
+def _kernel_buffers(steps: int, n: int, obs_dim: int, width: int) -> tuple[np.ndarray, ...]:
+    return (
+        np.zeros((steps + 1, n, obs_dim), np.float32),
+        np.zeros((steps, n, width), np.float32),
+        np.zeros((steps + 1, n), np.float32),
+        np.zeros((steps, n), np.float32),
+        np.zeros((steps, n), np.float32),
+        np.zeros((steps, n), bool),
+        np.zeros((steps, n), bool),
+        np.ones((steps + 1, n), bool),
+    )
+
+
+@pytest.mark.parametrize("env_id", ["Pendulum-v1", "CartPole-v1"])
+def test_rollout_actions_log_probs_and_values_are_the_policys(env_id: str) -> None:
+    """Gaussian: mean + std * noise, clipped to [-1, 1], mapped onto the Box; categorical: Gumbel-max."""
+    model = _sb3_ppo(env_id, policy_kwargs={"net_arch": [16, 8]})
+    env = gym.make(env_id)
+    arch = architecture(env.observation_space, env.action_space, {"net_arch": [16, 8]})
+    params = _params_of(model)
+    n, rng = 64, np.random.default_rng(1)
+    obs = rng.normal(0, 1, (n, arch.obs_dim)).astype(np.float32)
+    discrete = isinstance(env.action_space, gym.spaces.Discrete)
+    noise = (rng.gumbel if discrete else rng.standard_normal)(size=(n, arch.actions)).astype(np.float32) * 3
+    buffers = _kernel_buffers(1, n, arch.obs_dim, 1 if discrete else arch.actions)
+    buffers[0][0] = obs
+    env_actions = np.zeros((n, 1 if discrete else arch.actions), np.float32)
+    net = (*network(params, arch, "pi"), *network(params, arch, "vf"))
+    log_std = params.get("log_std", np.zeros(1, np.float32))
+    if discrete:
+        bounds = (np.array([0.0], np.float32), np.array([1.0], np.float32), 2)
+    else:
+        bounds = (np.array([-2.0], np.float32), np.array([2.0], np.float32), 0)
+    none = np.zeros(n, bool)
+    stats = (np.zeros(arch.obs_dim), np.ones(arch.obs_dim), np.ones(1), 10.0, 1e-8)
+    rollout_kernel.step(
+        0,
+        obs,
+        none.astype(np.float32),
+        none,
+        none,
+        False,
+        stats,
+        False,
+        net,
+        log_std,
+        noise,
+        (0.0, 1.0, 0.0),
+        bounds,
+        buffers,
+        env_actions,
+        True,
+    )
+    actions, values, log_probs = buffers[1][0], buffers[2][0], buffers[3][0]
+    with torch.no_grad():
+        tensor = torch.as_tensor(obs)
+        their_values, their_log_probs, _ = model.policy.evaluate_actions(
+            tensor, torch.as_tensor(actions[:, 0] if discrete else actions)
+        )
+        head = mlp(*network(params, arch, "pi"), obs)
+    np.testing.assert_allclose(values, their_values.numpy()[:, 0], rtol=1e-5, atol=1e-5)
+    np.testing.assert_allclose(log_probs, their_log_probs.numpy(), rtol=1e-5, atol=1e-5)
+    if discrete:
+        np.testing.assert_array_equal(actions[:, 0], np.argmax(head + noise, axis=1))
+        np.testing.assert_array_equal(env_actions, actions)
+    else:
+        np.testing.assert_allclose(actions, head + np.exp(log_std) * noise, rtol=1e-5, atol=1e-6)
+        assert (np.abs(actions) > 1).any()  # some are clipped before the mapping
+        mapped = -2.0 + (np.clip(actions, -1, 1) + 1.0) * 0.5 * 4.0
+        np.testing.assert_allclose(env_actions, mapped, rtol=1e-6, atol=1e-6)
+
+
+def test_advantages_are_sb3s_gae_and_truncations_bootstrap_from_the_final_observation() -> None:
+    from stable_baselines3.common.buffers import RolloutBuffer
+
+    steps, n, gamma, lam = 40, 3, 0.97, 0.9
+    rng = np.random.default_rng(3)
+    rewards = rng.normal(0, 1, (steps, n)).astype(np.float32)
+    values = rng.normal(0, 1, (steps + 1, n)).astype(np.float32)
+    terminated = rng.random((steps, n)) < 0.1
+    none = np.zeros((steps, n), bool)
+    adv, ret = rollout_kernel.advantages(rewards, values, terminated, none, gamma, lam)
+    buf = RolloutBuffer(
+        steps, gym.spaces.Box(-1, 1, (1,)), gym.spaces.Box(-1, 1, (1,)), n_envs=n, gamma=gamma, gae_lambda=lam
+    )
+    starts = np.vstack([np.zeros((1, n), bool), terminated[:-1]])
+    for t in range(steps):
+        buf.add(np.zeros((n, 1)), np.zeros((n, 1)), rewards[t], starts[t], torch.as_tensor(values[t]), torch.zeros(n))
+    buf.compute_returns_and_advantage(torch.as_tensor(values[steps]), terminated[-1])
+    np.testing.assert_allclose(adv, buf.advantages, rtol=1e-5, atol=1e-5)
+    np.testing.assert_allclose(ret, buf.returns, rtol=1e-5, atol=1e-5)
+    # a truncated step: its reward plus gamma times the value of its final observation (the next row)
+    truncated = none.copy()
+    truncated[10, 1] = True
+    adv, _ = rollout_kernel.advantages(rewards, values, none, truncated, gamma, lam)
+    expected = rewards[10, 1] + gamma * values[11, 1] - values[10, 1]
+    assert adv[10, 1] == pytest.approx(expected, rel=1e-5)
+
+
+# -- the trainer ------------------------------------------------------------------------------------
+
+
+def test_the_update_is_compiled_once_and_the_rate_follows_its_schedule(tmp_path: Path) -> None:
+    text = TINY_DAM.replace(
+        "{schedule: kl_adaptive, initial: 1.0e-3, kl_threshold: 0.008}", "{schedule: cosine, initial: 1.0e-3}"
+    )
+    hp = load_preset(DAM, "ppo", _tiny(tmp_path, text))
+    trainer = JaxPPO(DAM, hp, seed=0)
+    trainer.start_episodes()
+    rows = 64
+    for k in range(1, 4):
+        trainer.iteration()
+        assert trainer.rate == pytest.approx(1e-3 * 0.5 * (1 + np.cos(np.pi * k * rows / 256)))
+    assert trainer.update._cache_size() == 1  # type: ignore[attr-defined]  # jax.jit's compilations
+    assert not trainer.rollout.valid.all()  # the 20-day episodes end inside the rollouts: autoreset rows
+
+
+def test_value_statistics_take_the_values_then_the_returns_of_the_valid_rows(tmp_path: Path) -> None:
+    hp = load_preset(DAM, "ppo", _tiny(tmp_path))
+    trainer = JaxPPO(DAM, hp, seed=0)
+    trainer.start_episodes()
+    trainer.iteration()
+    valid = trainer.rollout.valid[:32].sum()
+    assert trainer.scaler is not None and trainer.scaler.count == 1 + 2 * valid
+
+
+def _arrays(path: Path) -> dict[str, np.ndarray]:
+    with np.load(path, allow_pickle=False) as data:
+        return {k: data[k] for k in data.files}
+
+
+def test_a_resumed_run_equals_an_uninterrupted_one(tmp_path: Path) -> None:
+    preset = _tiny(tmp_path)
+    whole = train(DAM, "ppo", preset, seed=1, out=tmp_path / "whole", trainer="jax")
+
+    def stop(done: int, total: int) -> None:
+        if done >= 192:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        train(DAM, "ppo", preset, seed=1, out=tmp_path / "cut", progress=stop, trainer="jax")
+    assert (tmp_path / "cut" / "checkpoint" / "state.json").exists()
+    resumed = train(DAM, "ppo", preset, seed=1, out=tmp_path / "cut", trainer="jax")
+    a, b = _arrays(whole.model_path), _arrays(resumed.model_path)
+    assert a.keys() == b.keys() and all(np.array_equal(a[k], b[k]) for k in a)
+    assert whole.curve_csv.read_text() == resumed.curve_csv.read_text()
+    record = json.loads((tmp_path / "cut" / "run.json").read_text())
+    assert record["trainer"] == "jax" and record["resumes"][0]["at"] == 128
+    assert {"jax", "jaxlib", "optax"} <= set(record["versions"])
+    assert whole.policy == f"ppo-jax:{whole.model_path}"
+
+
+_RUN = """
+import sys
+from gym4real.rl.train import train
+train("gym4real/dam-v0", "ppo", sys.argv[1], seed=2, out=sys.argv[2], trainer="jax")
+"""
+
+
+def test_the_same_seed_gives_the_same_model_bit_for_bit_with_one_or_two_threads(tmp_path: Path) -> None:
+    preset = _tiny(tmp_path, TINY_DAM.replace("total_timesteps: 256", "total_timesteps: 128"))
+    models = []
+    for threads in ("1", "2"):
+        env = {k: v for k, v in __import__("os").environ.items() if k != "XLA_FLAGS"}
+        env |= {"OMP_NUM_THREADS": threads, "NUMBA_NUM_THREADS": threads, "MKL_NUM_THREADS": threads}
+        out = tmp_path / f"threads{threads}"
+        subprocess.run([sys.executable, "-c", _RUN, preset, str(out)], check=True, env=env)
+        models.append(_arrays(out / "model.npz"))
+    assert all(np.array_equal(models[0][k], models[1][k]) for k in models[0])
+    assert models[0]["param/pi/0/w"].dtype == np.float32
+
+
+def test_a_model_file_round_trips_through_evaluate(tmp_path: Path) -> None:
+    run = train(DAM, "ppo", _tiny(tmp_path), seed=0, out=tmp_path / "run", trainer="jax")
+    env = gym.make(DAM)
+    model = load(run.model_path, env.observation_space, env.action_space)
+    assert model.normalization is not None and model.rescaled
+    evaluation = gym4real.evaluate({"mine": run.policy}, [DAM])
+    direct = gym4real.benchmark(DAM, [model], episodes="test")
+    (name,) = direct.returns
+    scores = evaluation.envs[DAM].scores["mine"]
+    np.testing.assert_array_equal(np.asarray(scores).ravel(), np.asarray(direct.objective_values(name)))
+
+
+def test_a_model_file_holds_only_data_and_refuses_other_spaces(tmp_path: Path) -> None:
+    env = gym.make("Pendulum-v1")
+    arch = architecture(env.observation_space, env.action_space, {"net_arch": [4]})
+    model = Model(arch, initial_parameters(arch, 0.0, 0), None, env.observation_space, env.action_space, True)
+    path = tmp_path / "model.npz"
+    model.save(path)
+    arrays = _arrays(path)  # allow_pickle=False: no object arrays
+    assert all(v.dtype != object for v in arrays.values())
+    again = load(path, env.observation_space, env.action_space)
+    obs = np.random.default_rng(0).normal(size=(7, 3)).astype(np.float32)
+    np.testing.assert_array_equal(again.actions(obs), model.actions(obs))
+    assert again(obs[0]).shape == (1,)
+    other = gym.spaces.Box(-1.0, 1.0, (3,), np.float32)
+    with pytest.raises(PolicyError, match="observation space"):
+        load(path, other, env.action_space)
+    with pytest.raises(PolicyError, match="not a model file"):
+        load(Path(__file__), env.observation_space, env.action_space)
+
+
+# -- settings and the extra ----------------------------------------------------------------------------
+
+
+def test_settings_the_trainer_does_not_implement_are_named(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match="target_kl"):
+        JaxPPO(DAM, load_preset(DAM, "ppo", _tiny(tmp_path, TINY_DAM.replace("n_epochs: 2", "target_kl: 0.1"))), 0)
+    with pytest.raises(PolicyError, match="activation_fn"):
+        architecture(gym.make(DAM).observation_space, gym.make(DAM).action_space, {"activation_fn": "ReLU"})
+    with pytest.raises(ConfigError, match="trains PPO"):
+        train("gym4real/wds-v0", "dqn", "smoke", out=tmp_path / "x", trainer="jax")
+
+
+@pytest.mark.parametrize("missing", ["jax", "optax", "numba"])
+def test_without_the_extra_the_trainer_names_it(missing: str, monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    monkeypatch.setitem(sys.modules, missing, None)  # an import of it fails, as when it is not installed
+    with pytest.raises(PolicyError, match=rf"\({missing} is missing\): `pip install \"gym4real-core\[jax\]\"`"):
+        jax_modules()
+    from gym4real.cli import main
+
+    assert main(["train", DAM, "--algo", "ppo", "--trainer", "jax", "--out", str(tmp_path / "r"), "--quiet"]) != 0
+
+
+def test_reproduce_with_the_jax_trainer_labels_its_section_runs_and_models(tmp_path: Path) -> None:
+    from gym4real.results.reproduce import reproduce
+
+    reproduce([DAM], "quick", [0], tmp_path, trainer="jax")
+    section = tmp_path / "dam-v0-quick-jax"
+    assert not (tmp_path / "dam-v0-quick").exists()  # the SB3 section is not touched
+    episodes = section / "episodes.csv"
+    assert "ppo-jax" in episodes.read_text() and ",ppo," not in episodes.read_text()
+    assert (tmp_path / "dam-v0" / "quick" / "runs" / "ppo-jax" / "seed0" / "model.npz").exists()
+    (listing,) = json.loads((section / "models.json").read_text())
+    assert listing["trainer"] == "jax" and "--trainer jax" in listing["retrain"]
+    assert "published-ppo-jax=ppo-jax:" in listing["evaluate"]
+    report = json.loads((section / "report.json").read_text())
+    assert report["presets"] == {"ppo-jax": "smoke"} and report["command"].endswith("--trainer jax")
