@@ -14,9 +14,10 @@ import json
 from pathlib import Path
 from typing import Any
 
-from gym4real.rl.imported import union
-from gym4real.results.published_models import LISTING, sha256_of
+from gym4real.bench.published import LISTING
 from gym4real.bench.versions import NOT_RECORDED
+from gym4real.rl.imported import union
+from gym4real.results.published_models import sha256_of
 
 
 def files_sha256(files: list[Path], root: Path) -> dict[str, str]:
