@@ -102,10 +102,12 @@ class DamMPC:
 
     Args:
         env: The dam environment (``gymnasium.make`` output or raw).
-        horizon: Days planned at each replan (at least 1); the episode's end bounds it.
-        cadence: Days between replans (at least 1, at most ``horizon``).
+        horizon: Days planned at each replan, in [1, 364] (the episode's end bounds it), and how many days
+            ahead a forecast carries the last observed anomaly.
+        cadence: Days between replans, in [1, ``horizon``].
         statistic: The climatology of the forecasts: ``"mean"`` or a quantile in [0, 1].
         step: Grid spacing of the lake level (m), positive.
+        margins: How far (m) below the env's flood level and above its starving level the planner puts them.
         cache: Reuse the decisions of an episode already run from the user cache
             (:func:`gym4real.bench.upper_reference.plan_cache`).
     """
@@ -179,7 +181,7 @@ class DamMPC:
     def forecasts(self, leave_out: Collection[int] = ()) -> tuple[SeriesForecast, SeriesForecast]:
         """The fitted forecasts of (inflow, demand) on the training years without ``leave_out``."""
         cfg = self.env.config
-        drop = self.env._fixes["drop_feb29"]
+        drop = cfg.resolved_fixes()["drop_feb29"]
         key = (tuple(sorted(leave_out)), drop)
         found = self._fits.get(key)
         if found is None:
