@@ -64,7 +64,7 @@ def gym4real_register_datasets() -> list[DatasetSpec]:
 
 @hookimpl
 def gym4real_register_baselines() -> list[BaselineSpec]:
-    """Random, mean, max and average-demand releases; the historical operators; the hindsight planner."""
+    """Random, mean, max and average-demand releases; historical operators; model-predictive control; hindsight."""
     return [
         BaselineSpec(ENV_ID, "random", "gym4real.core.policies:random_policy", "uniform random release"),
         BaselineSpec(ENV_ID, "mean", "gym4real.dam.baselines:mean", "constant release at the middle of the box"),
@@ -81,6 +81,12 @@ def gym4real_register_baselines() -> list[BaselineSpec]:
             "historical_replay",
             "gym4real.dam.baselines:historical_replay",
             "replay of the historical releases reconstructed from the recorded levels",
+        ),
+        BaselineSpec(
+            ENV_ID,
+            "mpc",
+            "gym4real.dam.mpc:mpc",
+            "model-predictive control: the hindsight planner's programme on forecasts from the training years",
         ),
         BaselineSpec(
             ENV_ID,

@@ -146,6 +146,7 @@ def backward(
     evaporates: bool,
     substeps: int,
     costs: tuple[float, float, float, float, float],
+    terminal: np.ndarray | None = None,
 ) -> np.ndarray:
     """The optimal value ``V[t, g]`` of the rest of the episode from grid level ``g`` at the start of day ``t``.
 
@@ -160,13 +161,17 @@ def backward(
         evaporates: Whether evaporation is subtracted.
         substeps: Sub-steps per day.
         costs: Weights of deficit, overflow and starving; flood and starving levels.
+        terminal: ``(points,)``: the value of each grid level after the last day; None: 0 (nothing is
+            scored after the episode).
 
     Returns:
-        ``(days + 1, points)``; the last row is 0 (nothing is scored after the episode).
+        ``(days + 1, points)``; the last row is ``terminal``.
     """
     days = exogenous.shape[0]
     area, lmin = lake[0], lake[1]
     values = np.zeros((days + 1, points))
+    if terminal is not None:
+        values[days] = terminal
     width = decisions.shape[1]
     after = np.empty(width)
     mean_release = np.empty(width)
