@@ -115,9 +115,9 @@ def gym4real_register_baselines() -> list[BaselineSpec]:
             ENV_ID,
             "mpc",
             "gym4real.microgrid.mpc:mpc",
-            "causal model-predictive control: each day forecasts the next 48 h (demand: the hour of the past 4 "
-            "weeks, PV: of the past 3 days, prices: the coming hour's as shown, then yesterday's), plans the SoC "
-            "on them with the hindsight planner's DP and tracks the plan through the twin",
+            "causal model-predictive control: each day forecasts the next 24 h (demand and PV: the hour's mean "
+            "over the past 7 days; prices: the coming hour's as shown, then yesterday's), plans the SoC on them "
+            "with the hindsight planner's DP and tracks the plan through the twin",
         ),
         BaselineSpec(
             ENV_ID,

@@ -20,12 +20,13 @@ only reader of the whole episode is the plan cache's key, which finds the action
 run (as the planners' caches do, :func:`gym4real.bench.upper_reference.plan_cache`); the actions it
 replays were computed causally from the same data.
 
-**Forecasts** (:class:`Profile`, chosen on the training years with stand-in households, never on the test
-protocol; measurements in ``docs/headroom.md``): the demand is the mean of the same hour of the last
-:data:`DEMAND`.count weeks, the PV the mean of the same hour of the last :data:`GENERATION`.count days,
-the prices after the coming hour those of the same hour of the last :data:`PRICES`.count days. A profile
-without a value at its period yet (the episode's first week or day) uses the same hour of the past days,
-then the last value (persistence).
+**Forecasts** (:class:`Profile`): the demand and the PV of an hour are the mean of the same hour of the
+last seven days (:data:`DEMAND`, :data:`GENERATION`), the prices after the coming hour those of the same
+hour of the day before (:data:`PRICES`); in the episode's first days, the days there are, and before the
+hour of the day has been seen, the last value (persistence). Plans look 24 hours ahead (:data:`HORIZON`)
+and are made every 24 hours (:data:`CADENCE`). These were chosen on validation episodes (stand-in training
+households on the training years, ``scripts/measure_microgrid_mpc.py``), never on the test protocol;
+``docs/headroom.md`` gives what each alternative scored and cost there.
 
 **Model over the horizon**: the battery's present temperature and capacity held; the planner's initial
 cyclic rate (:meth:`~gym4real.microgrid.hindsight.MicrogridHindsight._initial_cyclic_rate`); the damage
@@ -105,13 +106,13 @@ class Profile:
 
 
 #: Hours each plan looks ahead.
-HORIZON = 48
+HORIZON = 24
 #: Hours between plans (the plan is followed, tracked through the twin, in between).
 CADENCE = 24
-#: Demand forecast: the same hour of the past four weeks.
-DEMAND = Profile(WEEK, 4)
-#: PV forecast: the same hour of the past three days.
-GENERATION = Profile(DAY, 3)
+#: Demand forecast: the same hour of the past seven days.
+DEMAND = Profile(DAY, 7)
+#: PV forecast: the same hour of the past seven days.
+GENERATION = Profile(DAY, 7)
 #: Forecast of the prices after the coming hour's: the same hour of the past day.
 PRICES = Profile(DAY, 1)
 #: Name and version of the plans in the cache (a new version starts a new file).
