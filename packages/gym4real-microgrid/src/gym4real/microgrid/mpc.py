@@ -60,8 +60,8 @@ class Profile:
 
     The values averaged for hour ``q`` are those of hours ``q - period``, ``q - 2 period``, ... (the latest
     ``count`` of them already observed). Where the series has none yet, the profile of the same hour of the
-    past days stands in, and before a day has passed the last observed value (persistence). Period 1 and
-    count 1 is persistence itself.
+    past days stands in, and where that hour of the day has not been observed either, the last observed
+    value (persistence). Period 1 and count 1 is persistence itself.
 
     Attributes:
         period: Hours between the values averaged (168: the hour of the week, 24: the hour of the day).
@@ -131,7 +131,7 @@ class MicrogridMPC:
         prices: Forecast of the ask and bid after the coming hour (whose prices the observation shows).
         grid_step: SoC step of the planner's dynamic programme.
         cache: Reuse the actions of an episode already run from the user cache
-            (:func:`gym4real.bench.upper_reference.plan_cache`).
+            (:func:`gym4real.bench.upper_reference.plan_cache`; an episode is stored once run to its last hour).
 
     Raises:
         PolicyError: The env is not a MicrogridEnv with ``decision_interval`` 1, numba is missing, or a
@@ -233,6 +233,9 @@ class MicrogridMPC:
 
     def forecast(self, k: int, n: int) -> dict[str, np.ndarray]:
         """The forecast of episode hours ``k .. k + n - 1`` from the observations up to hour ``k``'s.
+
+        A subclass overrides it to plan on another forecast (``scripts/measure_microgrid_mpc.py`` hands it the
+        episode's own series to measure what forecasting costs).
 
         Returns:
             ``margin`` (PV minus demand, W), ``ask`` and ``bid`` (EUR/Wh) of each hour; the first hour's
