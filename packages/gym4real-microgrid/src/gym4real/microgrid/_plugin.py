@@ -107,10 +107,18 @@ def gym4real_register_datasets() -> list[DatasetSpec]:
 
 @hookimpl
 def gym4real_register_baselines() -> list[BaselineSpec]:
-    """Random, only-market, battery-first, 50-50 and the non-causal hindsight planner."""
+    """Random, only-market, battery-first, 50-50, the causal MPC and the non-causal hindsight planner."""
     return [
         BaselineSpec(ENV_ID, "random", "gym4real.core.policies:random_policy", "uniform random fraction"),
         *(BaselineSpec(ENV_ID, name, f"gym4real.microgrid.baselines:{name}", text) for name, text in BASELINES.items()),
+        BaselineSpec(
+            ENV_ID,
+            "mpc",
+            "gym4real.microgrid.mpc:mpc",
+            "causal model-predictive control: each day forecasts the next 24 h (demand and PV: the hour's mean "
+            "over the past 7 days; prices: the coming hour's as shown, then yesterday's), plans the SoC on them "
+            "with the hindsight planner's DP and tracks the plan through the twin",
+        ),
         BaselineSpec(
             ENV_ID,
             "hindsight",

@@ -324,10 +324,15 @@ class MicrogridHindsight:
         return _Replay(objective, bat.calendar_aging + bat.cyclic_aging, bat.cyclic_aging, temperature, capacity, soc)
 
 
-def _tracking(env: MicrogridEnv, target: float) -> float:
-    """The fraction of the coming hour's net power that moves the twin's SoC to ``target`` (in [0, 1])."""
-    row = env._row
-    margin = env._pv[row % env._hour_mod] - env._demand[row % env._n_demand]
+def _tracking(env: MicrogridEnv, target: float, margin: float | None = None) -> float:
+    """The fraction of the coming hour's net power that moves the twin's SoC to ``target`` (in [0, 1]).
+
+    ``margin`` is the net power (W) the fraction is of: None for the coming hour's, which the hindsight
+    planner knows; the causal controller (:mod:`gym4real.microgrid.mpc`) passes its forecast.
+    """
+    if margin is None:
+        row = env._row
+        margin = env._pv[row % env._hour_mod] - env._demand[row % env._n_demand]
     if margin == 0.0:
         return 0.0
     bat = env.battery
