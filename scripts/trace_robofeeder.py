@@ -16,6 +16,7 @@ Usage (from the repository root; ``MUJOCO_GL=egl OMP_NUM_THREADS=1 GYM4REAL_DATA
     python scripts/trace_robofeeder.py trace --env picking-v0 --policy random --episodes 5 --out a.jsonl
     NPY_DISABLE_CPU_FEATURES="AVX512F AVX512CD AVX512_SKX" python scripts/trace_robofeeder.py trace ... --out b.jsonl
     python scripts/trace_robofeeder.py diff a.jsonl b.jsonl
+    python scripts/trace_robofeeder.py kernels   # BLAS vs BLAS-free products; rerun under OPENBLAS_CORETYPE=...
 
 The first line of a trace records the machine (CPU model and flags, the OpenGL renderer, numpy's and
 OpenCV's dispatched instruction sets, library versions); ``diff`` prints where two traces first differ, in
@@ -322,6 +323,52 @@ def diff(path_a: Path, path_b: Path) -> int:
     return status
 
 
+def _product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a @ b`` (2-D by 2-D) without BLAS: elementwise products summed in a fixed order."""
+    return (a[:, :, None] * b[None, :, :]).sum(axis=1)
+
+
+def _solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.linalg.solve(a, b)`` (b a vector) without LAPACK: Gaussian elimination with partial pivoting."""
+    a, b = a.astype(float), b.astype(float)
+    n = len(a)
+    for k in range(n):
+        p = k + int(np.argmax(np.abs(a[k:, k])))
+        a[[k, p]], b[[k, p]] = a[[p, k]], b[[p, k]]
+        f = a[k + 1 :, k] / a[k, k]
+        a[k + 1 :] -= f[:, None] * a[k]
+        b[k + 1 :] -= f * b[k]
+    x = np.zeros(n)
+    for k in range(n - 1, -1, -1):
+        x[k] = (b[k] - (a[k, k + 1 :] * x[k + 1 :]).sum()) / a[k, k]
+    return x
+
+
+def kernels() -> None:
+    """Hash the kinds of product the simulation path uses, through BLAS and without it (run under two settings)."""
+    rng = np.random.default_rng(1)
+    proj, points = rng.normal(size=(4, 4)), rng.normal(size=(300, 4))
+    jac, err = rng.normal(size=(5, 6)), rng.normal(size=5)
+    image = rng.integers(0, 256, (300, 300, 3)).astype(np.float32)
+    weights = np.array([0.2989, 0.5870, 0.1140], np.float32)
+    damped = jac @ jac.T + 0.01 * np.eye(5)
+    blas = {
+        "points @ proj.T": points @ proj.T,
+        "image @ weights": image @ weights,
+        "norm (1-D)": np.array([np.linalg.norm(v) for v in points]),
+        "jac.T @ solve": jac.T @ np.linalg.solve(damped, err),
+    }
+    free = {
+        "points @ proj.T": _product(points, proj.T),
+        "image @ weights": (image * weights).sum(axis=-1),
+        "norm (1-D)": np.sqrt((points * points).sum(axis=-1)),
+        "jac.T @ solve": _product(jac.T, _solve(_product(jac, jac.T) + 0.01 * np.eye(5), err)[:, None])[:, 0],
+    }
+    print(f"openblas core {openblas_core()}")
+    for name in blas:
+        print(f"  {name:16s} BLAS {digest(blas[name])}  BLAS-free {digest(free[name])}")
+
+
 def main() -> int:
     """Command line: ``trace`` or ``diff``."""
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -333,6 +380,7 @@ def main() -> int:
     t.add_argument("--first", type=int, default=0, help="index of the first test episode")
     t.add_argument("--out", type=Path, required=True)
     t.add_argument("--opencv-unoptimized", action="store_true", help="cv2.setUseOptimized(False) first")
+    sub.add_parser("kernels", help="hash BLAS and BLAS-free products (compare under two dispatch settings)")
     d = sub.add_parser("diff", help="where two traces first differ")
     d.add_argument("a", type=Path)
     d.add_argument("b", type=Path)
@@ -343,6 +391,9 @@ def main() -> int:
 
             cv2.setUseOptimized(False)
         trace(args.env, args.policy, args.episodes, args.first, args.out)
+        return 0
+    if args.command == "kernels":
+        kernels()
         return 0
     return diff(args.a, args.b)
 
