@@ -27,7 +27,8 @@ import numpy as np
 import pandas as pd
 
 from gym4real.bench import stats
-from gym4real.bench.policies import make_policy
+from gym4real.bench.policies import check_policy, make_policy
+from gym4real.bench.progress import ProgressDisplay
 from gym4real.core.errors import ConfigError
 from gym4real.core.registry import MARK, base_env, baseline_names, env_spec, load_object, non_causal, registry
 from gym4real.core.specs import BenchmarkSpec
@@ -402,6 +403,8 @@ def benchmark(
         raise ConfigError(f'`episodes` must be "test" or a positive int, not {episodes!r}')
     if not policies:
         policies = list(spec.policies) if spec and spec.policies else baseline_names(env_id)
+    for ref in policies:  # every policy named right before the first episode runs
+        check_policy(env_id, ref)
     result = BenchmarkResult(
         env_id,
         plan,
@@ -412,7 +415,9 @@ def benchmark(
         env_kwargs=dict(kwargs),
     )
     final_keys = spec.final_info if spec else ()
-    bar = None
+    bar: ProgressDisplay | None = None
+    # a planner's episodes cost minutes where the others cost seconds: an estimate of the time left would mislead
+    planners = [ref for ref in policies if isinstance(ref, str) and ref in non_causal(env_id)]
     try:
         for ref in policies:
             name = policy_name(ref)
@@ -422,16 +427,14 @@ def benchmark(
                     result.objectives = env.unwrapped.components
                 policy = make_policy(env_id, ref, env)
                 if progress and bar is None:  # drawn once an env is made: a missing data file is said alone
-                    from tqdm.auto import tqdm
-
-                    bar = tqdm(total=len(policies) * len(plan), desc=env_id, unit="episode")
+                    bar = ProgressDisplay(env_id, len(policies) * len(plan), "episodes", eta=not planners)
                 runs = []
                 for ep in plan:
                     runs.append(
                         run_episode(env, policy, ep.get("seed"), ep.get("options"), final_keys, None, result.objective)
                     )
                     if bar is not None:
-                        bar.update()
+                        bar.advance()
             finally:
                 env.close()
             result.rewards[name] = [r["rewards"] for r in runs]

@@ -29,7 +29,7 @@ from gym4real.bench import stats, suite_score, upper_reference
 from gym4real.bench.benchmark import benchmark, protocol, run_episode
 from gym4real.bench.policies import build_policy, is_user_object, make_policy, user_policy
 from gym4real.bench.reference import check_fingerprint, fingerprint, load_reference
-from gym4real.bench.seeds import SeedRequest
+from gym4real.bench.seeds import SeedRequest, check_seed_count
 from gym4real.bench.seeds import seeds as plan_seeds
 from gym4real.core.errors import ConfigError, PolicyError
 from gym4real.core.registry import MARK, baseline_names, list_envs, load_object, non_causal, registry, slug
@@ -381,10 +381,7 @@ def evaluate(
         PolicyError: A policy that cannot be built or acts out of its space.
         ConfigError: An agent named like a reference policy, or policies and seeds that do not match.
     """
-    if isinstance(seeds, int) and seeds < 1:
-        raise ConfigError(f"seeds must be at least 1, not {seeds}")
-    if seeds is not None and not isinstance(seeds, int) and len(set(seeds)) != len(list(seeds)):
-        raise ConfigError(f"seeds {list(seeds)} repeat a seed; each training seed is one run")
+    check_seed_count(seeds)
     evaluation = Evaluation(list(policies))
     for env_id in _env_ids(envs):
         seed_list = None if seeds is None else plan_seeds(env_id, "paper", seeds)

@@ -15,6 +15,7 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
+from gym4real.bench.progress import ProgressDisplay
 from gym4real.bench.seeds import is_preset_file
 from gym4real.bench.versions import git_version
 from gym4real.core.errors import ConfigError
@@ -148,9 +149,7 @@ def train(
     last_write = start
     bar = None
     if progress is True:
-        from tqdm.auto import tqdm
-
-        bar = tqdm(desc=f"{algo} {env_id}", unit="episode" if algo in ("qlearning", "sarsa") else "step")
+        bar = ProgressDisplay(f"{algo} {env_id}", unit="episodes" if algo in ("qlearning", "sarsa") else "steps")
 
     def report(done: int, total: int) -> None:
         nonlocal last_write
@@ -159,8 +158,7 @@ def train(
             timing.write_text(json.dumps({"wall_time_s": previous + now - start}))
             last_write = now
         if bar is not None:
-            bar.total = total
-            bar.update(done - bar.n)
+            bar.update(done, total)
         elif callable(progress):
             progress(done, total)
 
