@@ -19,12 +19,13 @@ from __future__ import annotations
 
 import inspect
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 
+from gym4real.bench.agent_errors import factory_failure
 from gym4real.core.errors import PolicyError
 from gym4real.core.registry import base_env, load_object, registry
 from gym4real.core.suggest import did_you_mean
@@ -68,37 +69,50 @@ def _accepts_seed(factory: Callable[..., Any]) -> bool:
     return "seed" in parameters or any(p.kind is inspect.Parameter.VAR_KEYWORD for p in parameters.values())
 
 
-def build_policy(obj: Any, env: gym.Env[Any, Any], name: str, seed: int | None = None) -> Callable[[Any], Any]:
+def build_policy(
+    obj: Any, env: gym.Env[Any, Any], name: str, seed: int | None = None, weights: Sequence[float] | None = None
+) -> Callable[[Any], Any]:
     """The policy that a factory or policy object gives for ``env``.
 
     Args:
-        obj: A function or class (a factory, called ``obj(env)``, or ``obj(env, seed=seed)`` when ``seed`` is
-            given), or any other callable object (the policy itself).
+        obj: A function or class (a factory, called ``obj(env)``, ``obj(env, seed=seed)`` when ``seed`` is
+            given, ``obj(env, weights=weights[, seed=seed])`` when ``weights`` are), or any other callable object
+            (the policy itself).
         env: The environment the policy will act in.
         name: How the user named it, for error messages.
         seed: The training seed of the policy asked for (the unit of replication), or None for one policy.
+        weights: The weights of a weight-conditioned factory (one per objective), or None.
 
     Raises:
-        PolicyError: Not callable, a factory that returns no policy, or a seed asked of what cannot take one.
+        PolicyError: Not callable, a factory that raises (its exception in one line, the cause of the error) or
+            returns no policy, or a seed asked of what cannot take one.
     """
     if inspect.isfunction(obj) or inspect.ismethod(obj) or isinstance(obj, type):
-        if seed is None:
-            built = obj(env)
-        elif _accepts_seed(obj):
-            built = obj(env, seed=seed)
-        else:
+        if seed is not None and not _accepts_seed(obj):
             raise PolicyError(
                 f"`{name}` takes no `seed`, so every seed would be the same policy: give it a `seed` keyword "
                 "argument (`def factory(env, seed)`), or evaluate one seed"
             )
+        given: dict[str, Any] = {} if weights is None else {"weights": tuple(weights)}
+        if seed is not None:
+            given["seed"] = seed
+        try:
+            built = obj(env, **given)
+        except (Exception, SystemExit) as exc:
+            called = ", ".join(["env", *(f"{k}={v!r}" for k, v in given.items())])
+            raise factory_failure(name, exc, f"factory({called})") from exc
         if not callable(built):
             raise PolicyError(
-                f"`{name}` returned {type(built).__name__}, not a policy: a function or class given as a policy is a "
-                "factory `factory(env) -> policy`; for a plain `obs -> action` function `act`, pass `lambda env: act`"
+                f"`{name}` returned {type(built).__name__}, not a policy; fix: a function or class given as a policy "
+                "is a factory `factory(env) -> policy` that returns a callable `policy(obs) -> action` (for a plain "
+                "`obs -> action` function `act`, pass `lambda env: act`)"
             )
         return built
     if not callable(obj):
-        raise PolicyError(f"`{name}` is a {type(obj).__name__}, not a policy or a factory of policies")
+        raise PolicyError(
+            f"`{name}` is a {type(obj).__name__}, not a policy or a factory of policies; fix: name a factory "
+            "`factory(env) -> policy` or a callable `policy(obs) -> action`"
+        )
     if seed is not None:
         raise PolicyError(
             f"`{name}` is one policy object, so it cannot be several seeds: give a factory `factory(env, seed)` "

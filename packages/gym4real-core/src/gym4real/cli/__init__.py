@@ -1,8 +1,8 @@
 """The ``gym4real`` command: list, info, bench, record, data, train, reproduce, evaluate, dataset.
 
 One module per command, each with ``add(sub)`` (its arguments) and the function it runs. Errors are printed
-as one line (``gym4real: error: ...``) with exit status 2, never a traceback (set ``GYM4REAL_DEBUG=1`` for
-one).
+as one line (``gym4real: error: ...``) with exit status 2, never a traceback (``--debug`` or
+``GYM4REAL_DEBUG=1`` for one, with the traceback of your agent's own exception).
 """
 
 from __future__ import annotations
@@ -63,7 +63,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # so that the exit flush is quiet
         return 0
     except (Gym4RealError, OSError, ValueError, KeyError) as exc:
-        if os.environ.get("GYM4REAL_DEBUG"):
+        if args.debug or os.environ.get("GYM4REAL_DEBUG"):
             raise
         msg = " ".join(str(exc).split())
         print(f"gym4real: error: {msg}", file=sys.stderr)

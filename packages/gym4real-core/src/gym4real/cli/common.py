@@ -18,6 +18,9 @@ def command(sub: Any, name: str, text: str, run: Callable[[argparse.Namespace], 
     """A sub-command ``name`` of ``sub`` that runs ``run(args)``; its help is ``text``."""
     parser: argparse.ArgumentParser = sub.add_parser(name, help=text, description=text[0].upper() + text[1:] + ".")
     parser.set_defaults(run=run)
+    parser.add_argument(
+        "--debug", action="store_true", help="on an error, its traceback (and your code's) instead of one line"
+    )
     return parser
 
 
