@@ -55,6 +55,7 @@ def add(sub: Any) -> None:
         "evaluate",
         "score your agent on the test protocols beside the reference runs (per env and a suite score)",
         _evaluate,
+        extra="bench",
     )
     ev.add_argument(
         "policies",
