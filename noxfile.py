@@ -2,8 +2,12 @@
 
 * ``tests``: every package editable in one venv, all test suites (the README's test command; CI runs it).
 * ``tests-<dist>``: one distribution with core only, in its own venv, its own suite.
-* ``wheels``: build every wheel, install them into a fresh venv, smoke-test each domain.
+* ``wheels``: build every wheel, install them into a fresh venv (core without extras: the thin install a
+  domain's user gets), smoke-test each domain.
 * ``minimal``: core alone lists no env and names the pip install of a missing domain.
+
+Core's ``bench`` extra (matplotlib, scipy, tqdm: measurement, training, publishing) is installed wherever
+something measures: ``tests``, ``tests-<dist>`` (each test group names ``gym4real-core[bench]``), ``bench``, ``docs``.
 * ``lint`` (ruff, import-linter's layers) and ``typecheck`` (mypy).
 * ``release -- <dist>`` and ``compat -- <dist>``: release checks of one distribution (RELEASING.md).
 """
@@ -67,8 +71,9 @@ def _test_deps(dist: Path) -> list[str]:
     return list(nox.project.dependency_groups(nox.project.load_toml(dist / "pyproject.toml"), "test"))
 
 
-def _editable(dist: Path) -> str:
-    return f"-e{dist}[rl,jax,mo,offline]" if dist == CORE else f"-e{dist}"
+def _editable(dist: Path, extras: str = "bench,rl,jax,mo,offline") -> str:
+    """``-e`` install of ``dist``; core with ``extras``."""
+    return f"-e{dist}[{extras}]" if dist == CORE and extras else f"-e{dist}"
 
 
 @nox.session
@@ -127,7 +132,7 @@ for _dist in PACKAGES:
 
 
 def _install_current(session: nox.Session, dists: list[Path]) -> None:
-    """Install ``dists`` editable, skipping those already installed from an unchanged ``pyproject.toml``.
+    """Install ``dists`` editable (core with its ``bench`` extra), skipping those installed unchanged.
 
     A stamp in the venv records each installed distribution's ``pyproject.toml``; code changes need no
     reinstall (editable), a changed dependency list does.
@@ -140,7 +145,7 @@ def _install_current(session: nox.Session, dists: list[Path]) -> None:
         session.log(f"reusing the venv: {', '.join(wanted)} already installed")
         return
     session.log(f"installing {', '.join(d.name for d in missing)} (pip's progress follows)")
-    session.install(*(f"-e{d}" for d in missing), silent=False)
+    session.install(*(_editable(d, "bench") for d in missing), silent=False)
     stamp.write_text(json.dumps(installed | wanted))
 
 
@@ -243,7 +248,7 @@ def lint(session: nox.Session) -> None:
 @nox.session
 def typecheck(session: nox.Session) -> None:
     """mypy over every package's sources."""
-    session.install("mypy", "types-PyYAML", *(f"-e{d}" for d in PACKAGES))
+    session.install("mypy", "types-PyYAML", *(_editable(d, "bench") for d in PACKAGES))  # matplotlib's, scipy's types
     session.run("mypy", *(str(d / "src" / "gym4real") for d in PACKAGES))
 
 

@@ -9,11 +9,11 @@ import shlex
 import sys
 import textwrap
 from collections.abc import Callable, Iterator, Sequence
+from importlib import metadata as importlib_metadata
 from pathlib import Path
 from types import ModuleType
 from typing import Any
 
-import importlib_metadata
 import pandas as pd
 import pytest
 
@@ -105,11 +105,13 @@ def listed_evaluate(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Callable
 
 
 class FakeDistribution(importlib_metadata.Distribution):
-    """An installed distribution held in memory: a name, a version and ``gym4real.plugins`` entry points."""
+    """An installed distribution held in memory: a name, a version, ``gym4real.plugins`` entry points and the
+    requirements it declares."""
 
-    def __init__(self, name: str, version: str, entry_points: dict[str, str]) -> None:
+    def __init__(self, name: str, version: str, entry_points: dict[str, str], requires: Sequence[str] = ()) -> None:
+        declared = "".join(f"Requires-Dist: {r}\n" for r in requires)
         self._files = {
-            "METADATA": f"Metadata-Version: 2.1\nName: {name}\nVersion: {version}\n",
+            "METADATA": f"Metadata-Version: 2.1\nName: {name}\nVersion: {version}\n{declared}",
             "entry_points.txt": "[gym4real.plugins]\n" + "".join(f"{k} = {v}\n" for k, v in entry_points.items()),
         }
 
@@ -124,10 +126,10 @@ class FakeDistribution(importlib_metadata.Distribution):
 def fake_plugins(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Callable[..., object]]:
     """Rediscover the plugins with fake distributions beside (or instead of) the installed ones.
 
-    ``fake_plugins((dist, version, {entry_point_name: module}), ..., modules={module: source}, first=True,
-    real=True)`` writes each module under a temporary folder on ``sys.path``, lists the fake distributions' entry
-    points before (``first``) or after the installed ones (none of those if ``real`` is false) and returns the new
-    registry. Non-strict mode; the installed
+    ``fake_plugins((dist, version, {entry_point_name: module}[, requires]), ..., modules={module: source},
+    first=True, real=True)`` writes each module under a temporary folder on ``sys.path``, lists the fake
+    distributions' entry points before (``first``) or after the installed ones (none of those if ``real`` is
+    false) and returns the new registry. Non-strict mode; the installed
     registry, ``sys.modules`` and Gymnasium's registry are restored afterwards.
     """
     import gymnasium
@@ -141,7 +143,7 @@ def fake_plugins(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Ca
     monkeypatch.delenv("GYM4REAL_STRICT_PLUGINS", raising=False)
 
     def install(
-        *dists: tuple[str, str, dict[str, str]],
+        *dists: tuple[Any, ...],
         modules: dict[str, str] | None = None,
         first: bool = True,
         real: bool = True,

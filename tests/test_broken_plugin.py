@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Iterator
+from importlib import metadata as importlib_metadata
 
-import importlib_metadata
 import pytest
 
 import gym4real

@@ -10,6 +10,7 @@ from __future__ import annotations
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -29,12 +30,13 @@ def test_lint_imports_keeps_every_contract() -> None:
     result = _lint(ROOT)
     assert result.returncode == 0, result.stdout + result.stderr
     assert "0 broken" in result.stdout
-    for contract in ("Layers", "plugin host imports nothing above it", "independent", "Domains reach measurement"):
+    contracts = ("Layers", "plugin host imports nothing above it", "independent", "Domains reach measurement")
+    for contract in (*contracts, "import no library of core's bench extra", "only in the harness's hooks"):
         assert contract in result.stdout
 
 
-def test_a_core_module_importing_measurement_breaks_the_layers(tmp_path: Path) -> None:
-    """The same contracts, on the graph plus one upward import: lint-imports names it and fails."""
+def _graph(external: bool = False) -> object:
+    """grimp's graph of every installed portion of ``gym4real`` (with the third-party packages it imports)."""
     import importlib.util
 
     import grimp
@@ -44,7 +46,12 @@ def test_a_core_module_importing_measurement_breaks_the_layers(tmp_path: Path) -
     runner = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(runner)
     runner.whole_namespace()
-    graph = grimp.build_graph("gym4real", cache_dir=None)
+    return grimp.build_graph("gym4real", include_external_packages=external, cache_dir=None)
+
+
+def test_a_core_module_importing_measurement_breaks_the_layers(tmp_path: Path) -> None:
+    """The same contracts, on the graph plus one upward import: lint-imports names it and fails."""
+    graph: Any = _graph()
     domains = {"dam", "elevator", "microgrid", "robofeeder", "trading", "wds"}
     assert {f"gym4real.{d}" for d in domains} <= graph.modules
     for layer in ("core", "bench", "rl", "results", "cli"):
@@ -57,3 +64,15 @@ def test_a_core_module_importing_measurement_breaks_the_layers(tmp_path: Path) -
         layers=("gym4real.cli", "gym4real.results", "gym4real.rl", "gym4real.bench", "gym4real.core")
     )
     assert {(d.importer, d.imported) for d in broken} == {("gym4real.core", "gym4real.bench")}
+
+
+def test_the_host_imports_no_library_of_the_bench_extra_and_one_import_would_show() -> None:
+    """The thin install's contract is not vacuous: the graph sees third-party imports (measurement's matplotlib)."""
+    graph: Any = _graph(external=True)
+    assert {"matplotlib", "scipy", "tqdm"} <= graph.modules
+    for source in ("gym4real.core", "gym4real.wrappers"):
+        for library in ("matplotlib", "scipy", "tqdm"):
+            assert graph.find_shortest_chain(importer=source, imported=library, as_packages=True) is None
+    graph.add_import(importer="gym4real.core.canvas", imported="matplotlib")
+    chain = graph.find_shortest_chain(importer="gym4real.core", imported="matplotlib", as_packages=True)
+    assert chain == ("gym4real.core.canvas", "matplotlib")

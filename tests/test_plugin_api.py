@@ -8,9 +8,9 @@ import subprocess
 import sys
 import tomllib
 from collections.abc import Callable
+from importlib import metadata as importlib_metadata
 from pathlib import Path
 
-import importlib_metadata
 import pytest
 from packaging.requirements import Requirement
 

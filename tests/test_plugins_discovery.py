@@ -5,8 +5,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
-
-import importlib_metadata
+from importlib import metadata as importlib_metadata
 
 import gym4real
 from gym4real.core.registry import CANONICAL_IDS, ENTRY_POINT_GROUP, registry

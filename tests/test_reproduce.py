@@ -172,7 +172,8 @@ def test_an_unknown_id_or_no_seed_is_refused_before_anything_runs(tmp_path: Path
         assert done.returncode == 2 and "unknown environment `gym4real/trading-v9`" in done.stderr, done.stderr
     for args in (["gym4real/trading-v0", "--seeds", "0", "--plan"], ["gym4real/trading-v0", "--seeds", "0"]):
         done = _cli(*args, "--out", str(tmp_path / "cli"))
-        assert done.returncode == 2 and "--seeds must be at least 1, not 0" in done.stderr, done.stderr
+        assert done.returncode == 2 and "must be at least 1" in done.stderr, done.stderr
+        assert "for the one seed 0 write `--seeds 0,`" in done.stderr, done.stderr
     assert not (tmp_path / "cli").exists()
 
 

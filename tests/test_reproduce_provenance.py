@@ -82,7 +82,7 @@ def test_a_truncated_qtable_stops_reproduce_naming_the_file_and_leaves_the_folde
 
 @pytest.mark.parametrize(
     ("name", "cut"),
-    [("run.json", 10), ("checkpoint.npz", 40), ("checkpoint/state.json", 5)],
+    [("run.json", 10), ("checkpoint.npz", 40), ("checkpoint/state.json", 5), ("curve.csv", 61), ("curve.csv", 55)],
 )
 def test_every_damaged_run_file_is_named_with_its_run(tmp_path: Path, name: str, cut: int) -> None:
     from gym4real.results.run_files import DamagedRunError, check_run_folder
@@ -92,6 +92,8 @@ def test_every_damaged_run_file_is_named_with_its_run(tmp_path: Path, name: str,
     (run / "run.json").write_text(json.dumps({"model": "qtable.npz", "wall_time_s": 1.0}))
     (run / "checkpoint" / "state.json").write_text(json.dumps({"timesteps": 4096, "slot": "a"}))
     np.savez(run / "checkpoint.npz", q=np.arange(100.0), episode=np.array(7))
+    curve = pd.DataFrame({"timesteps": [2048, 4096], "mean_return": [-12.5, -9.25], "eval_episodes": [5, 5]})
+    curve.to_csv(run / "curve.csv", index=False)  # 62 bytes: cut at 61 drops its last line break, at 55 mid-row
     check_run_folder(run, "dam-v0 ppo seed 3")  # whole files pass
     path = run / name
     path.write_bytes(path.read_bytes()[:cut])
@@ -99,6 +101,19 @@ def test_every_damaged_run_file_is_named_with_its_run(tmp_path: Path, name: str,
     with pytest.raises(DamagedRunError, match=rf"run `dam-v0 ppo seed 3`: its file `{name}`"):
         check_run_folder(run, "dam-v0 ppo seed 3")
     assert _snapshot(run) == before
+
+
+def test_a_truncated_learning_curve_of_a_finished_run_stops_reproduce_naming_it(
+    elevator_quick: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "out"
+    shutil.copytree(elevator_quick, out)
+    curve = out / "elevator-v0" / "quick" / "runs" / "sarsa" / "seed42" / "curve.csv"
+    curve.write_bytes(curve.read_bytes()[:-7])
+    done = _cli("gym4real/elevator-v0", "--budget", "quick", "--seeds", "1", "--out", str(out), "--quiet")
+    assert done.returncode != 0, done.stdout
+    assert "curve.csv" in done.stderr and "elevator-v0 sarsa seed 42" in done.stderr, done.stderr
+    assert "--retrain-damaged" in done.stderr
 
 
 def test_a_section_lists_and_publishes_its_models_and_evaluate_reruns_them(

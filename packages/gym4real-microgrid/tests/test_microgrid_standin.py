@@ -171,7 +171,7 @@ def test_synthesize_says_what_it_writes_and_its_expected_time_then_a_short_progr
     assert f"40 households with 2 worker process(es), {standin.expected_time(40, 2)}" in first
     # not a terminal: a line after the first household and at each tenth, not one per household (nor a
     # bar's redraws)
-    expected = [f"synthesize microgrid: {n}/40" for n in [1, *range(4, 41, 4)]]
+    expected = [f"synthesize microgrid: {n}/40 households" for n in [1, *range(4, 41, 4)]]
     assert [line.split(" (")[0] for line in lines] == expected
 
 

@@ -27,11 +27,15 @@ __all__ = ["benchmark", "env_info", "evaluate", "list_envs", "make", "plugin_err
 
 
 def __getattr__(name: str) -> object:
-    if name == "benchmark":  # imports pandas: only on first use
+    if name in ("benchmark", "evaluate"):  # measurement: the `bench` extra, imported on first use
+        from gym4real.core.install_hint import require_extra
+
+        require_extra("bench", f"`gym4real.{name}`")
+    if name == "benchmark":
         from gym4real.bench.benchmark import benchmark
 
         return benchmark
-    if name == "evaluate":  # imports pandas and scipy: only on first use
+    if name == "evaluate":
         from gym4real.bench.evaluate import evaluate
 
         return evaluate

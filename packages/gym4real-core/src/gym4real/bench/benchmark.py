@@ -27,8 +27,10 @@ import numpy as np
 import pandas as pd
 
 from gym4real.bench import stats
-from gym4real.bench.policies import make_policy
-from gym4real.core.errors import ConfigError
+from gym4real.bench.agent_errors import EpisodeTimeout, action_failure, agent_label, blame, code_failure
+from gym4real.bench.policies import check_policy, make_policy
+from gym4real.bench.progress import ProgressDisplay
+from gym4real.core.errors import ActionError, ConfigError
 from gym4real.core.registry import MARK, base_env, baseline_names, env_spec, load_object, non_causal, registry
 from gym4real.core.specs import BenchmarkSpec
 from gym4real.wrappers.multi_objective import MultiObjective
@@ -332,10 +334,18 @@ def run_episode(
     ``observer(step, score_so_far)``, if given, is called after the reset (step 0) and after each step, with
     the objective so far (the return so far without ``objective``).
     The reward of a vector-reward env is its ``info["scalar_reward"]``; its entries are the components.
+
+    Raises:
+        PolicyFailure: The policy raised (or its ``reset``), or its action is not in the action space, naming
+            the step and the fix (:mod:`gym4real.bench.agent_errors`); the environment's own errors pass unchanged.
+        EpisodeTimeout: From an enclosing :func:`~gym4real.bench.agent_errors.time_limit`, with the step reached.
     """
     reset = getattr(policy, "reset", None)
     if reset is not None:
-        reset(seed)
+        try:
+            reset(seed)
+        except (Exception, SystemExit) as exc:
+            raise code_failure("reset", "its reset(seed)", exc) from exc
     obs, info = env.reset(seed=seed, options=options)
     rewards: list[float] = []
     steps_objective: list[float] = []
@@ -345,7 +355,20 @@ def run_episode(
     if observer is not None:
         observer(0, total)
     while not done:
-        obs, reward, terminated, truncated, info = env.step(policy(obs))
+        try:
+            action = policy(obs)
+        except (Exception, SystemExit) as exc:
+            raise code_failure(len(rewards), "its policy", exc) from exc
+        except EpisodeTimeout as exc:
+            exc.step = len(rewards)
+            raise
+        try:
+            obs, reward, terminated, truncated, info = env.step(action)
+        except ActionError as exc:
+            raise action_failure(len(rewards), exc, env) from exc
+        except EpisodeTimeout as exc:
+            exc.step = len(rewards)
+            raise
         rewards.append(float(info.get("scalar_reward", reward)))
         step_comps = info.get("reward_components", {})
         for key, value in step_comps.items():
@@ -402,6 +425,8 @@ def benchmark(
         raise ConfigError(f'`episodes` must be "test" or a positive int, not {episodes!r}')
     if not policies:
         policies = list(spec.policies) if spec and spec.policies else baseline_names(env_id)
+    for ref in policies:  # every policy named right before the first episode runs
+        check_policy(env_id, ref)
     result = BenchmarkResult(
         env_id,
         plan,
@@ -412,7 +437,9 @@ def benchmark(
         env_kwargs=dict(kwargs),
     )
     final_keys = spec.final_info if spec else ()
-    bar = None
+    bar: ProgressDisplay | None = None
+    # a planner's episodes cost minutes where the others cost seconds: an estimate of the time left would mislead
+    planners = [ref for ref in policies if isinstance(ref, str) and ref in non_causal(env_id)]
     try:
         for ref in policies:
             name = policy_name(ref)
@@ -420,18 +447,21 @@ def benchmark(
             try:
                 if isinstance(env.unwrapped, MultiObjective):  # a vector reward: its entries are reported
                     result.objectives = env.unwrapped.components
-                policy = make_policy(env_id, ref, env)
+                where = f"policy `{agent_label(name, ref)}` on `{env_id}`"
+                with blame(where):
+                    policy = make_policy(env_id, ref, env)
                 if progress and bar is None:  # drawn once an env is made: a missing data file is said alone
-                    from tqdm.auto import tqdm
-
-                    bar = tqdm(total=len(policies) * len(plan), desc=env_id, unit="episode")
+                    bar = ProgressDisplay(env_id, len(policies) * len(plan), "episodes", eta=not planners)
                 runs = []
-                for ep in plan:
-                    runs.append(
-                        run_episode(env, policy, ep.get("seed"), ep.get("options"), final_keys, None, result.objective)
-                    )
+                for i, ep in enumerate(plan):
+                    with blame(f"{where}, episode {i} (reset seed {ep.get('seed')})"):
+                        runs.append(
+                            run_episode(
+                                env, policy, ep.get("seed"), ep.get("options"), final_keys, None, result.objective
+                            )
+                        )
                     if bar is not None:
-                        bar.update()
+                        bar.advance()
             finally:
                 env.close()
             result.rewards[name] = [r["rewards"] for r in runs]

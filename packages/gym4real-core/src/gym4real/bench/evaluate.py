@@ -26,12 +26,13 @@ import numpy as np
 import pandas as pd
 
 from gym4real.bench import stats, suite_score, upper_reference
+from gym4real.bench.agent_errors import AgentError, agent_label, blame, check_timeout
 from gym4real.bench.benchmark import benchmark, protocol, run_episode
-from gym4real.bench.policies import build_policy, is_user_object, make_policy, user_policy
+from gym4real.bench.policies import build_policy, check_policy, is_user_object, make_policy, user_policy
 from gym4real.bench.reference import check_fingerprint, fingerprint, load_reference
-from gym4real.bench.seeds import SeedRequest
+from gym4real.bench.seeds import SeedRequest, check_seed_count
 from gym4real.bench.seeds import seeds as plan_seeds
-from gym4real.core.errors import ConfigError, PolicyError
+from gym4real.core.errors import ConfigError
 from gym4real.core.registry import MARK, baseline_names, list_envs, load_object, non_causal, registry, slug
 
 PolicyRef = str | Callable[..., Any]
@@ -266,8 +267,12 @@ def _of_factory(factory: Callable[..., Any], name: str, seed: int | None) -> Bui
 
 
 def _of_string(ref: str, env_id: str, seed: int | None) -> Builder:
-    """A policy string with ``{env}`` and ``{seed}`` filled in; a ``module:attr`` factory gets the seed."""
+    """A policy string with ``{env}`` and ``{seed}`` filled in, checked now (:func:`check_policy`).
+
+    A ``module:attr`` factory gets the seed.
+    """
     filled = _filled(ref, env_id, seed or 0)
+    check_policy(env_id, filled)
     if is_user_object(filled):
         return lambda env: user_policy(filled, env, seed)
     return _of_policy(env_id, filled)
@@ -308,22 +313,38 @@ def _builders(name: str, agent: Agent, env_id: str, seeds: Sequence[int] | None)
 
 
 def _run_agent(
-    name: str, env_id: str, builders: list[tuple[int, Builder]], kwargs: dict[str, Any], plan: list[dict[str, Any]]
+    name: str,
+    label: str,
+    env_id: str,
+    builders: list[tuple[int, Builder]],
+    kwargs: dict[str, Any],
+    plan: list[dict[str, Any]],
+    timeout: float | None = None,
 ) -> tuple[np.ndarray, pd.DataFrame]:
-    """Run each seed's policy on the test episodes; return the objective matrix and every episode's row."""
+    """Run each seed's policy on the test episodes; return the objective matrix and every episode's row.
+
+    Raises:
+        AgentError: The agent (``label``) failed, naming the env, seed, test episode and step
+            (:func:`~gym4real.bench.agent_errors.blame`), or scored a non-finite objective.
+    """
     objective = protocol(env_id).objective
     rows = []
     for seed, build in builders:
+        where = f"agent `{label}` on `{env_id}` (seed {seed})"
         env = gym.make(env_id, **kwargs)
         try:
-            policy = build(env)
+            with blame(where):
+                policy = build(env)
             for i, episode in enumerate(plan):
-                run = run_episode(env, policy, episode.get("seed"), episode.get("options"))
+                at = f"{where}, test episode {i} (reset seed {episode.get('seed')})"
+                with blame(at, timeout):
+                    run = run_episode(env, policy, episode.get("seed"), episode.get("options"))
                 ret = float(run["rewards"].sum())
                 value = float(sum(run["components"].get(c, 0.0) for c in objective)) if objective else ret
                 if not np.isfinite(value):
-                    raise PolicyError(
-                        f"agent `{name}` scored a non-finite objective on `{env_id}` (seed {seed}, episode {i})"
+                    raise AgentError(
+                        f"{at}: its objective is {value} (the env's reward components: {run['components']}); fix "
+                        "the actions that drive the env there"
                     )
                 rows.append(
                     {"policy": name, "seed": seed, "episode": i, "objective": value, "return": ret, **run["components"]}
@@ -343,6 +364,37 @@ def _reference_note(env_id: str, references: str | Path | None) -> str:
     return f"none shipped with {dist} {version}: compared with the baselines run now"
 
 
+def _prepare(
+    policies: Mapping[str, Agent],
+    env_id: str,
+    seeds: SeedRequest,
+    references: str | Path | None,
+    allow_non_causal: bool,
+) -> dict[str, list[tuple[int, Builder]]]:
+    """Each agent's ``(seed, build)`` on ``env_id``, every policy string checked: what can be refused before a run.
+
+    Raises:
+        ConfigError: An agent named like a baseline or reference policy of the env, a non-causal baseline given
+            as an agent, or policies and seeds that do not match.
+        PolicyError: A policy string that names no policy (:func:`~gym4real.bench.policies.check_policy`).
+    """
+    seed_list = None if seeds is None else plan_seeds(env_id, "paper", seeds)
+    reference = load_reference(env_id, references)
+    taken = {*baseline_names(env_id), *(reference.scores if reference is not None else ())}
+    prepared = {}
+    for name, agent in policies.items():
+        upper_reference.check_agent(
+            env_id, name, agent.get(env_id) if isinstance(agent, Mapping) else agent, allow_non_causal
+        )
+        if name in taken:
+            raise ConfigError(
+                f"agent name `{name}` is taken by a baseline or reference agent of `{env_id}`; name your agent "
+                f"otherwise (`NAME={name}` on the command line)"
+            )
+        prepared[name] = _builders(name, agent, env_id, seed_list)
+    return prepared
+
+
 def evaluate(
     policies: Mapping[str, Agent],
     envs: str | Sequence[str] = "all",
@@ -351,6 +403,7 @@ def evaluate(
     out: str | Path | None = None,
     allow_non_causal: bool = False,
     headroom: bool = True,
+    episode_timeout: float | None = None,
 ) -> Evaluation:
     """Evaluate agents on the suite's test protocols and compare them with the reference runs.
 
@@ -367,7 +420,8 @@ def evaluate(
             number N, the first N seeds of each environment's plan, as ``gym4real reproduce --seeds N`` trains
             them (the paper's, then 0, 1, ...), or the seeds themselves.
         references: A folder of reference files to use instead of those the domains ship.
-        out: If given, write ``score.json``, the CSVs, figures and ``report.md`` there.
+        out: If given, write ``score.json``, the CSVs, figures and ``report.md`` there (only once every run
+            has succeeded: a failed agent leaves no file).
         allow_non_causal: Accept a non-causal upper reference (``hindsight``) as an agent; it is refused
             otherwise, as it knows the episode's exogenous data. The environments' upper references are
             run beside the agents in any case (kind ``upper``), and each agent's shortfall from them is its
@@ -375,19 +429,24 @@ def evaluate(
         headroom: Run the upper references the reference runs lack (their plans are cached; the first run of
             a planner can take minutes: elevator's about 6 CPU minutes); False: only those the reference runs
             hold are reported.
+        episode_timeout: Seconds an agent may take for one test episode (None: no limit); see
+            :func:`~gym4real.bench.agent_errors.time_limit`.
 
     Raises:
         ReferenceMismatchError: A domain's reference runs were measured on another protocol.
-        PolicyError: A policy that cannot be built or acts out of its space.
+        PolicyError: A policy string that names no policy (refused before anything runs).
+        AgentError: An agent failed (its factory or policy raised, it acted out of the action space, ran past
+            ``episode_timeout``...): the agent, the env, the seed, test episode and step, and the fix.
         ConfigError: An agent named like a reference policy, or policies and seeds that do not match.
     """
-    if isinstance(seeds, int) and seeds < 1:
-        raise ConfigError(f"seeds must be at least 1, not {seeds}")
-    if seeds is not None and not isinstance(seeds, int) and len(set(seeds)) != len(list(seeds)):
-        raise ConfigError(f"seeds {list(seeds)} repeat a seed; each training seed is one run")
+    check_seed_count(seeds)
+    check_timeout(episode_timeout)
+    ids = _env_ids(envs)
+    for env_id in ids:
+        protocol(env_id)  # an unknown id, or one without a test protocol, before anything runs
+    prepared = {env_id: _prepare(policies, env_id, seeds, references, allow_non_causal) for env_id in ids}
     evaluation = Evaluation(list(policies))
-    for env_id in _env_ids(envs):
-        seed_list = None if seeds is None else plan_seeds(env_id, "paper", seeds)
+    for env_id in ids:
         spec = protocol(env_id)
         kwargs = dict(spec.env_kwargs)
         plan = load_object(spec.protocol)(dict(kwargs))
@@ -408,6 +467,12 @@ def evaluate(
                 kinds[policy] = "reference" if reference.seeds[policy] else "baseline"
                 if policy in non_causal(env_id):
                     kinds[policy] = "upper"
+        agents: dict[str, tuple[list[int], np.ndarray, pd.DataFrame]] = {}  # run first: a failing agent fails early
+        for name, agent in policies.items():
+            if builders := prepared[env_id][name]:
+                label = agent_label(name, agent.get(env_id) if isinstance(agent, Mapping) else agent)
+                matrix, frame = _run_agent(name, label, env_id, builders, kwargs, plan, episode_timeout)
+                agents[name] = ([s for s, _ in builders], matrix, frame)
         registered = baseline_names(env_id)
         upper = [b for b in non_causal(env_id) if b not in scores]
         missing_upper = upper if headroom else []
@@ -429,20 +494,8 @@ def evaluate(
             for b in missing_upper:
                 scores[b], kinds[b], run_seeds[b] = np.asarray(result.objective_values(b), float)[None], "upper", []
         frames = []
-        for name, agent in policies.items():
-            upper_reference.check_agent(
-                env_id, name, agent.get(env_id) if isinstance(agent, Mapping) else agent, allow_non_causal
-            )
-            if name in scores:
-                raise ConfigError(
-                    f"agent name `{name}` is taken by a baseline or reference agent of `{env_id}`; name your agent "
-                    f"otherwise (`NAME={name}` on the command line)"
-                )
-            builders = _builders(name, agent, env_id, seed_list)
-            if not builders:
-                continue
-            scores[name], frame = _run_agent(name, env_id, builders, kwargs, plan)
-            kinds[name], run_seeds[name] = "agent", [s for s, _ in builders]
+        for name, (agent_seeds, matrix, frame) in agents.items():
+            scores[name], kinds[name], run_seeds[name] = matrix, "agent", agent_seeds
             frames.append(frame)
         anchors = {p: m for p, m in scores.items() if kinds[p] == "baseline"}
         evaluation.envs[env_id] = EnvResult(

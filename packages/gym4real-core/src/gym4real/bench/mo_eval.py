@@ -31,6 +31,7 @@ import numpy as np
 import pandas as pd
 
 from gym4real.bench import mo_metrics, stats
+from gym4real.bench.agent_errors import agent_label, check_timeout
 from gym4real.bench.mo_reference import Build, MOReference, load, run_objectives, sweep_builder, test_plan
 from gym4real.bench.policies import build_policy, is_user_object, make_policy, user_policy
 from gym4real.core.errors import ConfigError
@@ -187,6 +188,13 @@ def _member(env_id: str, member: Member, name: str, seed: int | None) -> tuple[s
     raise ConfigError(f"agent `{name}`: {member!r} is not a policy string, a factory or a policy")
 
 
+def _weighted(
+    factory: Callable[..., Any], env: Any, name: str, seed: int | None, weights: list[float]
+) -> Callable[[Any], Any]:
+    """The policy of a weight-conditioned factory at ``weights`` (its failures named, as any factory's)."""
+    return build_policy(factory, env, name, seed, weights)
+
+
 def policies_of(env_id: str, name: str, agent: MOAgent, seed: int | None) -> list[tuple[str, Build]]:
     """The agent's set of policies on ``env_id`` for one training seed, as ``(label, build)``.
 
@@ -196,9 +204,11 @@ def policies_of(env_id: str, name: str, agent: MOAgent, seed: int | None) -> lis
     agent = _resolved(agent) if isinstance(agent, str) else agent
     if _takes_weights(agent):
         factory: Callable[..., Any] = agent  # type: ignore[assignment]
-        extra = {} if seed is None else {"seed": seed}
         return [
-            ("w=" + ",".join(f"{x:.4g}" for x in w), functools.partial(factory, weights=w, **extra))
+            (
+                "w=" + ",".join(f"{x:.4g}" for x in w),
+                functools.partial(_weighted, factory, name=name, seed=seed, weights=[float(x) for x in w]),
+            )
             for w in mo_metrics.simplex_weights(len(mo_spec(env_id).objectives))
         ]
     members: list[Member] = []
@@ -214,12 +224,22 @@ def policies_of(env_id: str, name: str, agent: MOAgent, seed: int | None) -> lis
     return [_member(env_id, m, name, seed) for m in members]
 
 
-def run_agent(env_id: str, name: str, agent: MOAgent, seeds: Sequence[int] | None = None) -> AgentRun:
+def run_agent(
+    env_id: str, name: str, agent: MOAgent, seeds: Sequence[int] | None = None, timeout: float | None = None
+) -> AgentRun:
     """Run an agent's policies (per training seed) on a vector-reward id's test protocol.
+
+    Args:
+        env_id: The vector-reward id.
+        name: The agent's name.
+        agent: Its set of policies, or its weight-conditioned factory.
+        seeds: Its training seeds (none: one run).
+        timeout: Seconds a test episode may take, or None.
 
     Raises:
         ConfigError: Seeds that repeat, or sets of different sizes across seeds.
-        PolicyError: A policy that cannot be built, or a non-finite objective.
+        AgentError: A policy that cannot be built, fails, runs past ``timeout`` or scores a non-finite
+            objective (naming the agent, the id, the seed and policy, the test episode and step).
     """
     plan, kwargs = test_plan(env_id)
     seed_list: list[int | None] = list(seeds) if seeds is not None else [None]
@@ -232,7 +252,13 @@ def run_agent(env_id: str, name: str, agent: MOAgent, seeds: Sequence[int] | Non
         if labels and len(built) != len(labels):
             raise ConfigError(f"agent `{name}` has {len(built)} policies at seed {seed} but {len(labels)} at the first")
         labels = labels or [label for label, _ in built]
-        values.append([run_objectives(env_id, build, plan, kwargs, f"{name}: {label}") for label, build in built])
+        who = f"agent `{agent_label(name, agent)}`"
+        values.append(
+            [
+                run_objectives(env_id, build, plan, kwargs, f"{who} (seed {seed or 0}, policy {label})", timeout)
+                for label, build in built
+            ]
+        )
     return AgentRun(
         name, labels, [s if s is not None else 0 for s in seed_list], seeds is not None, np.array(values, dtype=float)
     )
@@ -358,6 +384,7 @@ def evaluate_mo(
     seeds: Sequence[int] | None = None,
     references: str | Path | None = None,
     out: str | Path | None = None,
+    episode_timeout: float | None = None,
 ) -> MOEvaluation:
     """Evaluate multi-objective agents on vector-reward ids against the shipped reference point and fronts.
 
@@ -367,15 +394,19 @@ def evaluate_mo(
         envs: ``"all"`` (every vector-reward id with a declared evaluation) or ids.
         seeds: The training seeds (each builds the whole set; none: one run).
         references: A folder holding ``<name>.mo.json`` instead of the domains' shipped files.
-        out: If given, write ``score.json`` (its ``"mo"`` section), ``mo_episodes.csv`` and the Pareto plots.
+        out: If given, write ``score.json`` (its ``"mo"`` section), ``mo_episodes.csv`` and the Pareto plots
+            (once every run has succeeded: a failed agent leaves no file).
+        episode_timeout: Seconds an agent may take for one test episode (None: no limit).
 
     Raises:
         ConfigError: An id with no vector reward or no shipped reference.
         ReferenceMismatchError: A reference measured on another protocol.
-        PolicyError: A policy that cannot be built or scores non-finite objectives.
+        AgentError: An agent failed (its factory or a policy raised, acted out of the action space, ran past
+            ``episode_timeout``, scored non-finite objectives): the agent, the id, the seed, episode and step.
     """
     if not agents:
         raise ConfigError("no agent to evaluate: give at least one `NAME=POLICY`")
+    check_timeout(episode_timeout)
     results = {}
     for env_id in _env_ids(envs):
         reference = load(env_id, references)
@@ -384,7 +415,7 @@ def evaluate_mo(
                 f"`{env_id}` ships no multi-objective reference (`{slug(env_id)}.mo.json`): regenerate it with "
                 "`python scripts/export_mo_references.py`, or pass `--references DIR`"
             )
-        runs = {name: run_agent(env_id, name, agent, seeds) for name, agent in agents.items()}
+        runs = {name: run_agent(env_id, name, agent, seeds, episode_timeout) for name, agent in agents.items()}
         results[env_id] = MOResult(env_id, reference, runs)
     evaluation = MOEvaluation(results)
     if out is not None:

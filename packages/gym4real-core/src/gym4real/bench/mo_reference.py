@@ -35,10 +35,11 @@ import gymnasium as gym
 import numpy as np
 
 from gym4real.bench import mo_metrics, versions
+from gym4real.bench.agent_errors import AgentError, blame
 from gym4real.bench.benchmark import protocol, run_episode
 from gym4real.bench.policies import make_policy
 from gym4real.bench.reference import FINGERPRINT_FIELDS, FOLDER, domain_package, fingerprint
-from gym4real.core.errors import ConfigError, PolicyError, ReferenceMismatchError
+from gym4real.core.errors import ConfigError, ReferenceMismatchError
 from gym4real.core.mo_spec import MultiObjectiveSpec, SweepPolicy, mo_spec
 from gym4real.core.registry import base_env, load_object, slug
 
@@ -165,23 +166,43 @@ def _policy_env(env: gym.Env[Any, Any]) -> gym.Env[Any, Any]:
 
 
 def run_objectives(
-    env_id: str, build: Build, plan: Sequence[Mapping[str, Any]], kwargs: Mapping[str, Any], label: str
+    env_id: str,
+    build: Build,
+    plan: Sequence[Mapping[str, Any]],
+    kwargs: Mapping[str, Any],
+    label: str,
+    timeout: float | None = None,
 ) -> np.ndarray:
     """Run the policy ``build(env)`` on the test episodes of a vector-reward id; ``(episodes, objectives)``.
 
+    Args:
+        env_id: The vector-reward id.
+        build: ``build(env)`` returns the policy.
+        plan: The test episodes.
+        kwargs: Their ``make()`` arguments.
+        label: The policy in the errors (``agent `mo=m:f` (seed 0, policy w=0.5,0.5)``, ``random``).
+        timeout: Seconds an episode may take (:func:`~gym4real.bench.agent_errors.time_limit`), or None.
+
     Raises:
-        PolicyError: An episode with a non-finite objective.
+        AgentError: The policy or its factory failed, ran past ``timeout``, or scored a non-finite objective,
+            naming ``label``, the id, the test episode and step (:func:`~gym4real.bench.agent_errors.blame`).
     """
     spec = mo_spec(env_id)
+    where = f"{label} on `{env_id}`"
     env = gym.make(env_id, **kwargs)
     try:
-        policy = build(env)
+        with blame(where):
+            policy = build(env)
         rows = []
         for i, episode in enumerate(plan):
-            run = run_episode(env, policy, episode.get("seed"), episode.get("options"))
+            at = f"{where}, test episode {i} (reset seed {episode.get('seed')})"
+            with blame(at, timeout):
+                run = run_episode(env, policy, episode.get("seed"), episode.get("options"))
             values = spec.values(run["components"])
             if not np.isfinite(values).all():
-                raise PolicyError(f"`{label}` scored non-finite objectives {values.tolist()} on `{env_id}` episode {i}")
+                raise AgentError(
+                    f"{at}: non-finite objectives {values.tolist()}; fix the actions that drive the env there"
+                )
             rows.append(values)
     finally:
         env.close()
@@ -478,7 +499,11 @@ def add_front(
     for w in grid:
         label = "w=" + ",".join(f"{x:.4g}" for x in w)
         given = reference.scale.raw_weights(w) if normalised else w
-        rows.append(run_objectives(env_id, functools.partial(factory, weights=given, **extra), plan, kwargs, label))
+        rows.append(
+            run_objectives(
+                env_id, functools.partial(factory, weights=given, **extra), plan, kwargs, f"front `{name}` at {label}"
+            )
+        )
         labels.append(label)
     reference.fronts[name] = Front(name, kind, description, labels, np.array(rows))
     manifest = dict(reference.record.get("manifest", {}))

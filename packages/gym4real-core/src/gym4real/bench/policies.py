@@ -22,15 +22,17 @@ from __future__ import annotations
 
 import inspect
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 
+from gym4real.bench.agent_errors import factory_failure
 from gym4real.bench.published import check_published
 from gym4real.core.errors import PolicyError
 from gym4real.core.registry import base_env, load_object, registry
+from gym4real.core.suggest import did_you_mean
 from gym4real.wrappers.multi_objective import MultiObjective
 
 #: Prefix of a ``kind:path`` policy string -> ``"module:loader"``; ``loader(env, path)`` returns a policy.
@@ -72,37 +74,50 @@ def _accepts_seed(factory: Callable[..., Any]) -> bool:
     return "seed" in parameters or any(p.kind is inspect.Parameter.VAR_KEYWORD for p in parameters.values())
 
 
-def build_policy(obj: Any, env: gym.Env[Any, Any], name: str, seed: int | None = None) -> Callable[[Any], Any]:
+def build_policy(
+    obj: Any, env: gym.Env[Any, Any], name: str, seed: int | None = None, weights: Sequence[float] | None = None
+) -> Callable[[Any], Any]:
     """The policy that a factory or policy object gives for ``env``.
 
     Args:
-        obj: A function or class (a factory, called ``obj(env)``, or ``obj(env, seed=seed)`` when ``seed`` is
-            given), or any other callable object (the policy itself).
+        obj: A function or class (a factory, called ``obj(env)``, ``obj(env, seed=seed)`` when ``seed`` is
+            given, ``obj(env, weights=weights[, seed=seed])`` when ``weights`` are), or any other callable object
+            (the policy itself).
         env: The environment the policy will act in.
         name: How the user named it, for error messages.
         seed: The training seed of the policy asked for (the unit of replication), or None for one policy.
+        weights: The weights of a weight-conditioned factory (one per objective), or None.
 
     Raises:
-        PolicyError: Not callable, a factory that returns no policy, or a seed asked of what cannot take one.
+        PolicyError: Not callable, a factory that raises (its exception in one line, the cause of the error) or
+            returns no policy, or a seed asked of what cannot take one.
     """
     if inspect.isfunction(obj) or inspect.ismethod(obj) or isinstance(obj, type):
-        if seed is None:
-            built = obj(env)
-        elif _accepts_seed(obj):
-            built = obj(env, seed=seed)
-        else:
+        if seed is not None and not _accepts_seed(obj):
             raise PolicyError(
                 f"`{name}` takes no `seed`, so every seed would be the same policy: give it a `seed` keyword "
                 "argument (`def factory(env, seed)`), or evaluate one seed"
             )
+        given: dict[str, Any] = {} if weights is None else {"weights": tuple(weights)}
+        if seed is not None:
+            given["seed"] = seed
+        try:
+            built = obj(env, **given)
+        except (Exception, SystemExit) as exc:
+            called = ", ".join(["env", *(f"{k}={v!r}" for k, v in given.items())])
+            raise factory_failure(name, exc, f"factory({called})") from exc
         if not callable(built):
             raise PolicyError(
-                f"`{name}` returned {type(built).__name__}, not a policy: a function or class given as a policy is a "
-                "factory `factory(env) -> policy`; for a plain `obs -> action` function `act`, pass `lambda env: act`"
+                f"`{name}` returned {type(built).__name__}, not a policy; fix: a function or class given as a policy "
+                "is a factory `factory(env) -> policy` that returns a callable `policy(obs) -> action` (for a plain "
+                "`obs -> action` function `act`, pass `lambda env: act`)"
             )
         return built
     if not callable(obj):
-        raise PolicyError(f"`{name}` is a {type(obj).__name__}, not a policy or a factory of policies")
+        raise PolicyError(
+            f"`{name}` is a {type(obj).__name__}, not a policy or a factory of policies; fix: name a factory "
+            "`factory(env) -> policy` or a callable `policy(obs) -> action`"
+        )
     if seed is not None:
         raise PolicyError(
             f"`{name}` is one policy object, so it cannot be several seeds: give a factory `factory(env, seed)` "
@@ -112,6 +127,25 @@ def build_policy(obj: Any, env: gym.Env[Any, Any], name: str, seed: int | None =
     return policy
 
 
+def _user_object(policy: str) -> Any:
+    """Import ``module:attr`` (the user's own code: it runs) and return what it names.
+
+    Raises:
+        PolicyError: The module or attribute cannot be imported.
+    """
+    try:
+        return load_object(policy)
+    except ImportError as exc:
+        kind = policy.partition(":")[0]  # `ppp:model.zip`: a mistyped kind of model file, more likely than a module
+        hint = did_you_mean(kind, [*MODEL_LOADERS, SB3_KIND]) if getattr(exc, "name", None) == kind else ""
+        raise PolicyError(
+            f"cannot import `{policy}`: {exc}; `module:attr` names your own code, whose module must be importable "
+            f"(installed, on PYTHONPATH or in the working folder).{hint} Policy strings: {POLICY_FORMS}"
+        ) from exc
+    except AttributeError as exc:
+        raise PolicyError(f"cannot find `{policy}`: {exc}") from exc
+
+
 def user_policy(policy: str, env: gym.Env[Any, Any], seed: int | None = None) -> Callable[[Any], Any]:
     """Import ``module:attr`` (the user's own code: it runs) and build its policy for ``env``.
 
@@ -119,16 +153,61 @@ def user_policy(policy: str, env: gym.Env[Any, Any], seed: int | None = None) ->
         PolicyError: The module or attribute cannot be imported, or what it names is no policy (see
             :func:`build_policy`).
     """
-    try:
-        obj = load_object(policy)
-    except ImportError as exc:
+    return build_policy(_user_object(policy), env, policy, seed)
+
+
+def _model_file(policy: str) -> tuple[str, str, str | None]:
+    """``(loader, path, algo)`` of a model file ``kind:path`` (``algo`` for ``sb3:ALGO:PATH``, else None).
+
+    Raises:
+        PolicyError: An unknown kind (the nearest named), ``sb3:`` without ``ALGO:PATH``, or a missing file.
+    """
+    kind, _, path = policy.partition(":")
+    algo = None
+    if kind == SB3_KIND:
+        algo, _, path = path.partition(":")
+        if not path:
+            raise PolicyError(f"`{policy}` must be `sb3:ALGO:PATH` (`sb3:a2c:runs/model.zip`)")
+    elif kind not in MODEL_LOADERS:
+        hint = did_you_mean(kind, [*MODEL_LOADERS, SB3_KIND])
+        raise PolicyError(f"unknown policy kind `{kind}` in `{policy}`.{hint} Expected {POLICY_FORMS}")
+    if not Path(path).is_file():
+        raise PolicyError(f"policy file `{path}` (from `{policy}`) does not exist")
+    return (SB3_LOADER if algo is not None else MODEL_LOADERS[kind]), path, algo
+
+
+def _baseline(env_id: str, policy: str) -> str:
+    """The entry point of the baseline ``policy`` of ``env_id`` (a vector-reward variant: its env's).
+
+    Raises:
+        PolicyError: No such baseline (the nearest names suggested).
+    """
+    baselines = registry().baselines.get(base_env(env_id), {})
+    if policy not in baselines:
         raise PolicyError(
-            f"cannot import `{policy}`: {exc}; `module:attr` names your own code, whose module must be importable "
-            f"(installed, on PYTHONPATH or in the working folder). Policy strings: {POLICY_FORMS}"
-        ) from exc
-    except AttributeError as exc:
-        raise PolicyError(f"cannot find `{policy}`: {exc}") from exc
-    return build_policy(obj, env, policy, seed)
+            f"unknown policy `{policy}` for `{env_id}`.{did_you_mean(policy, baselines)} Baselines: "
+            f"{', '.join(sorted(baselines)) or 'none'}; or {POLICY_FORMS}"
+        )
+    return baselines[policy].entry_point
+
+
+def check_policy(env_id: str, policy: str | Callable[..., Any]) -> None:
+    """Refuse, before any episode runs, a policy string that names no policy of ``env_id``.
+
+    A baseline must be registered (the nearest names are suggested), a model file must exist, and a
+    ``module:attr`` must import (its module runs); a callable is accepted as it is.
+
+    Raises:
+        PolicyError: The policy string and what is wrong with it.
+    """
+    if callable(policy):
+        return
+    if is_user_object(policy):
+        _user_object(policy)
+    elif ":" in policy:
+        _model_file(policy)
+    else:
+        _baseline(env_id, policy)
 
 
 def make_policy(env_id: str, policy: str | Callable[[Any], Any], env: gym.Env[Any, Any]) -> Callable[[Any], Any]:
@@ -152,27 +231,12 @@ def make_policy(env_id: str, policy: str | Callable[[Any], Any], env: gym.Env[An
         env = env.unwrapped.env
     if is_user_object(policy):
         return user_policy(policy, env)
-    kind, sep, path = policy.partition(":")
-    if sep:
-        algo = None
-        if kind == SB3_KIND:
-            algo, _, path = path.partition(":")
-            if not path:
-                raise PolicyError(f"`{policy}` must be `sb3:ALGO:PATH` (`sb3:a2c:runs/model.zip`)")
-        elif kind not in MODEL_LOADERS:
-            raise PolicyError(f"unknown policy kind `{kind}` in `{policy}`; expected {POLICY_FORMS}")
-        if not Path(path).is_file():
-            raise PolicyError(f"policy file `{path}` (from `{policy}`) does not exist")
+    if ":" in policy:
+        loader, path, algo = _model_file(policy)
         check_published(path)  # a published model of a results folder: its bytes must be the listed ones
-        if algo is not None:
-            from_sb3: Callable[[Any], Any] = load_object(SB3_LOADER)(env, path, algo.lower())
-            return from_sb3
-        policy_from_file: Callable[[Any], Any] = load_object(MODEL_LOADERS[kind])(env, path)
-        return policy_from_file
-    baselines = registry().baselines.get(base_env(env_id), {})
-    if policy not in baselines:
-        raise PolicyError(
-            f"unknown policy `{policy}` for `{env_id}`; baselines: {sorted(baselines)}; or {POLICY_FORMS}"
+        from_file: Callable[[Any], Any] = (
+            load_object(loader)(env, path) if algo is None else load_object(loader)(env, path, algo.lower())
         )
-    built: Callable[[Any], Any] = load_object(baselines[policy].entry_point)(env)
+        return from_file
+    built: Callable[[Any], Any] = load_object(_baseline(env_id, policy))(env)
     return built

@@ -26,6 +26,7 @@ from PIL import Image
 
 from gym4real.bench.benchmark import policy_name, run_episode
 from gym4real.bench.policies import make_policy
+from gym4real.bench.progress import ProgressDisplay
 from gym4real.core.canvas import captioned
 from gym4real.core.errors import ConfigError, Gym4RealError
 from gym4real.core.registry import base_env, env_spec, registry
@@ -161,11 +162,7 @@ def record(
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
     rate = float(fps or env.metadata.get("render_fps") or 4)
-    bar = None
-    if progress:
-        from tqdm.auto import tqdm
-
-        bar = tqdm(unit="step", desc=f"{env_id} {label}")
+    bar = ProgressDisplay(f"{env_id} {label}", unit="steps") if progress else None
     written: list[Path] = []
     try:
         acting = make_policy(env_id, policy, env)
@@ -215,7 +212,7 @@ def _record_episode(
             if keeper is not None:
                 keeper.add(shown)
         if bar is not None and step:
-            bar.update()
+            bar.advance()
 
     try:
         run_episode(env, policy, seed, None, observer=on_step, objective=objective)

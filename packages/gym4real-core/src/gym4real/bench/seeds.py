@@ -50,6 +50,11 @@ def parse_seeds(text: str) -> int | list[int]:
             f"`--seeds {text}` is neither a number of seeds (`--seeds 5`: the first five of the plan) nor "
             "comma-separated seeds (`--seeds 0,1,2`; one seed: `--seeds 7,`)"
         )
+    if len(parts) == 1 and values[0] < 1:
+        raise ConfigError(
+            f"`--seeds {text}` is a number of seeds, which must be at least 1; for the one seed {values[0]} write "
+            f"`--seeds {values[0]},` (a trailing comma makes it a list)"
+        )
     return values[0] if len(parts) == 1 else values
 
 
@@ -64,7 +69,7 @@ def check_request(env_ids: Sequence[str], budget: str, n_seeds: SeedRequest) -> 
     for env_id in env_ids:
         env_spec(env_id)
     _check_budget(budget)
-    _check_seed_count(n_seeds)
+    check_seed_count(n_seeds)
 
 
 def _check_budget(budget: str) -> None:
@@ -72,9 +77,15 @@ def _check_budget(budget: str) -> None:
         raise ConfigError(f"budget `{budget}` is not one of {sorted(BUDGETS)}")
 
 
-def _check_seed_count(n: SeedRequest) -> None:
+def check_seed_count(n: SeedRequest) -> None:
+    """Refuse a count below 1, or a list that is empty, repeats a seed or holds a negative one.
+
+    Raises:
+        ConfigError: Naming the request and, for a count of 0, the one-seed form ``0,``.
+    """
     if isinstance(n, int) and n < 1:
-        raise ConfigError(f"--seeds must be at least 1, not {n}")
+        one = f"; for the one seed {n} write `{n},` (`seeds=[{n}]`)" if n == 0 else ""
+        raise ConfigError(f"seeds: a number of seeds must be at least 1, not {n}{one}")
     if n is not None and not isinstance(n, int):
         listed = list(n)
         if not listed or len(set(listed)) != len(listed) or any(s < 0 for s in listed):
@@ -107,7 +118,7 @@ def seeds(env_id: str, budget: str, n: SeedRequest = None) -> list[int]:
             exactly these seeds.
     """
     if n is not None and not isinstance(n, int):
-        _check_seed_count(n)
+        check_seed_count(n)
         return list(n)
     paper: list[int] = []
     for algo, preset in presets(env_id, "paper").items():
@@ -116,7 +127,7 @@ def seeds(env_id: str, budget: str, n: SeedRequest = None) -> list[int]:
                 paper.append(s)
     if n is None:
         n = min(len(paper) or QUICK_SEEDS, QUICK_SEEDS) if budget == "quick" else max(len(paper), DEFAULT_SEEDS)
-    _check_seed_count(n)
+    check_seed_count(n)
     extra = (s for s in range(10**6) if s not in paper)
     return (paper + [next(extra) for _ in range(max(0, n - len(paper)))])[:n]
 

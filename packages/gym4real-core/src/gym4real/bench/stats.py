@@ -1,4 +1,4 @@
-"""Summary statistics of test scores, from numpy and scipy.
+"""Summary statistics of test scores, from numpy and scipy (the ``bench`` extra, imported on first use).
 
 The scores of a policy are a matrix ``(runs, episodes)``: one row per training seed of an RL algorithm
 (one row for a baseline, which is not trained), one column per test episode; every policy plays the same
@@ -17,9 +17,11 @@ row is kept. A statistic of several policies (a difference) is computed on the s
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
-from scipy import stats as sps
+
+from gym4real.core.install_hint import import_extra
 
 #: Bootstrap replicates of every interval.
 REPS = 5000
@@ -31,10 +33,15 @@ RTOL = 1e-9
 Batched = Callable[..., np.ndarray]
 
 
+def scipy_stats() -> Any:
+    """``scipy.stats`` (the ``bench`` extra of gym4real-core), or the error naming that extra."""
+    return import_extra("scipy.stats", "bench")
+
+
 def iqm(values: Sequence[float] | np.ndarray) -> float:
     """Interquartile mean: the mean of the middle 50 % of the values (rliable's IQM, scipy's trim_mean)."""
     x = np.asarray(values, dtype=float)
-    return float(sps.trim_mean(x, 0.25, axis=None)) if x.size else float("nan")
+    return float(scipy_stats().trim_mean(x, 0.25, axis=None)) if x.size else float("nan")
 
 
 def mean_band(curves: Sequence[np.ndarray], z: float = 1.96) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -59,7 +66,7 @@ def t_band(rows: np.ndarray, level: float = 0.95) -> tuple[np.ndarray, np.ndarra
     many = count > 1
     half = np.full(rows.shape[1], np.nan)
     sem = np.nanstd(rows[:, many], axis=0, ddof=1) / np.sqrt(count[many])
-    half[many] = sps.t.ppf(0.5 + level / 2, count[many] - 1) * sem
+    half[many] = scipy_stats().t.ppf(0.5 + level / 2, count[many] - 1) * sem
     return mean, mean - half, mean + half
 
 
@@ -169,7 +176,7 @@ def batched(statistic: str) -> Batched:
     differences between its training seeds).
     """
     if statistic == "iqm":
-        return lambda x: sps.trim_mean(x.reshape(len(x), -1), 0.25, axis=1)
+        return lambda x: scipy_stats().trim_mean(x.reshape(len(x), -1), 0.25, axis=1)
     if statistic == "mean":
         return lambda x: x.mean(axis=(1, 2))
     if statistic == "spread":
@@ -222,7 +229,7 @@ def per_row(statistic: str) -> Batched:
     ``iqm`` and ``mean``: over the row's episodes; ``spread``: the standard deviation across its episodes.
     """
     if statistic == "iqm":
-        return lambda x: sps.trim_mean(x, 0.25, axis=2)
+        return lambda x: scipy_stats().trim_mean(x, 0.25, axis=2)
     if statistic == "mean":
         return lambda x: x.mean(axis=2)
     if statistic == "spread":
@@ -298,7 +305,7 @@ def profile_band(
 def per_seed(scores: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """IQM and mean over test episodes of each run (row) of a score matrix."""
     x = _matrices([scores])[0]
-    return sps.trim_mean(x, 0.25, axis=1), x.mean(axis=1)
+    return scipy_stats().trim_mean(x, 0.25, axis=1), x.mean(axis=1)
 
 
 def verdict(relation: str, low: float, high: float, margin: float | None = None) -> tuple[str, str]:

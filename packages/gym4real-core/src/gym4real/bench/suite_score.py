@@ -45,7 +45,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy import stats as sps
 
 from gym4real.bench import stats
 
@@ -166,7 +165,7 @@ def run_scores(scores: np.ndarray, env_scale: Scale) -> np.ndarray:
 
 def iqm_of_rows(x: np.ndarray) -> np.ndarray:
     """IQM of each row of ``(batch, runs)`` (of the last axis of any array)."""
-    result: np.ndarray = sps.trim_mean(x, 0.25, axis=-1)
+    result: np.ndarray = stats.scipy_stats().trim_mean(x, 0.25, axis=-1)
     return result
 
 

@@ -30,6 +30,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from gym4real.bench.progress import NOTICES
 from gym4real.core.errors import ConfigError
 from gym4real.core.registry import base_env, non_causal, registry
 
@@ -110,11 +111,14 @@ class PlanCache:
 
     Args:
         path: The cache file (created on the first :meth:`put`); None: nothing is cached.
+        label: The planner and environment, for the notice of a cold cache (``dam-dp-1 on gym4real/dam-v0``).
     """
 
-    def __init__(self, path: Path | None) -> None:
+    def __init__(self, path: Path | None, label: str = "a planner") -> None:
         self.path = path
+        self.label = label
         self._entries: dict[str, Any] | None = None
+        self._announced = False
 
     def _load(self) -> dict[str, Any]:
         if self._entries is None:
@@ -127,8 +131,18 @@ class PlanCache:
         return self._entries
 
     def get(self, key: str) -> Any:
-        """The cached plan of ``key``, or None."""
-        return self._load().get(key)
+        """The cached plan of ``key``, or None (the first miss announces the planning on :data:`NOTICES`)."""
+        found = self._load().get(key)
+        if found is None and not self._announced:
+            self._announced = True
+            where = f"cached afterwards in {self.path}" if self.path is not None else "not cached"
+            NOTICES.info(
+                "planning (%s): each episode not in the plan cache is planned before it is replayed, minutes per "
+                "protocol on a cold cache (%s)",
+                self.label,
+                where,
+            )
+        return found
 
     def put(self, key: str, plan: Any) -> None:
         """Store a plan (JSON-ready) under ``key``; the file is replaced atomically."""
@@ -160,11 +174,12 @@ def plan_cache(env: gym.Env[Any, Any], planner: str) -> PlanCache:
         env: The environment the planner acts in.
         planner: The planner's name and version (``dam-dp-1``): a new version starts a new file.
     """
+    env_id = getattr(env.unwrapped.spec, "id", None) or getattr(env.spec, "id", None)
+    label = f"{planner} on {env_id or 'an unregistered env'}"
     if os.environ.get("GYM4REAL_HINDSIGHT_CACHE", "1") == "0":
-        return PlanCache(None)
+        return PlanCache(None, label)
     from gym4real.core.datasets import cache_dir
 
-    env_id = getattr(env.unwrapped.spec, "id", None) or getattr(env.spec, "id", None)
     protocol_key: Mapping[str, Any] = {"env": "unregistered"}
     if env_id is not None and base_env(env_id) in registry().benchmarks:
         from gym4real.bench.reference import fingerprint
@@ -172,4 +187,4 @@ def plan_cache(env: gym.Env[Any, Any], planner: str) -> PlanCache:
         protocol_key = fingerprint(base_env(env_id), env)
     digest = plan_key(planner=planner, fingerprint=protocol_key)[:16]
     slug = (env_id or "unregistered").replace("/", "_")
-    return PlanCache(cache_dir() / "hindsight" / f"{slug}-{planner}-{digest}.json")
+    return PlanCache(cache_dir() / "hindsight" / f"{slug}-{planner}-{digest}.json", label)

@@ -1,9 +1,10 @@
 """The ``gym4real`` command: list, info, bench, record, data, train, reproduce, evaluate, dataset.
 
-One module per command, each with ``add(sub)`` (its arguments) and the function it runs. Errors are printed
-as one line (``gym4real: error: ...``) with exit status 2, never a traceback (set ``GYM4REAL_DEBUG=1`` for
-one); an error that documents its own ``exit_status`` (``reproduce --check``: stale, not checkable here,
-damaged files) exits with that.
+One module per command, each with ``add(sub)`` (its arguments) and the function it runs. A command that needs an
+extra of gym4real-core (``bench``: measurement, training, publishing) names it before it runs. Errors are printed
+as one line (``gym4real: error: ...``) with exit status 2, never a traceback (``--debug`` or
+``GYM4REAL_DEBUG=1`` for one, with the traceback of your agent's own exception); an error that documents its own
+``exit_status`` (``reproduce --check``: stale, not checkable here, damaged files) exits with that.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from typing import Any
 
 from gym4real.cli import bench, data, dataset, envs, evaluate, record, reproduce, train
 from gym4real.core.errors import Gym4RealError
+from gym4real.core.install_hint import extra_error, extra_providing, require_extra
 
 
 class _Versions(argparse.Action):
@@ -59,13 +61,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     run: Callable[[argparse.Namespace], None] = args.run
     try:
+        if args.extra is not None:
+            require_extra(args.extra, f"`gym4real {args.command}`")
         run(args)
     except BrokenPipeError:  # the reader went away (`gym4real list | head`): nothing left to say
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # so that the exit flush is quiet
         return 0
-    except (Gym4RealError, OSError, ValueError, KeyError) as exc:
-        if os.environ.get("GYM4REAL_DEBUG"):
+    except (Gym4RealError, OSError, ValueError, KeyError, ModuleNotFoundError) as exc:
+        if args.debug or os.environ.get("GYM4REAL_DEBUG"):
             raise
+        if isinstance(exc, ModuleNotFoundError):  # a library of an extra of core: name the extra; else a bug
+            extra = extra_providing(exc.name or "")
+            if extra is None:
+                raise
+            exc = extra_error(extra, f"`gym4real {args.command}`", [str(exc.name)])
         msg = " ".join(str(exc).split())
         print(f"gym4real: error: {msg}", file=sys.stderr)
         return exc.exit_status if isinstance(exc, Gym4RealError) else 2

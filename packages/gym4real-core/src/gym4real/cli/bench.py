@@ -32,7 +32,7 @@ def _bench(args: argparse.Namespace) -> None:
 
 def add(sub: Any) -> None:
     """``bench``."""
-    bench = command(sub, "bench", "benchmark policies on an environment (table and figures)", _bench)
+    bench = command(sub, "bench", "benchmark policies on an environment (table and figures)", _bench, extra="bench")
     bench.add_argument("env_id", help=ENV_ID_HELP)
     bench.add_argument(
         "--policies",

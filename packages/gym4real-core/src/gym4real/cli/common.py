@@ -14,10 +14,18 @@ from gym4real.core.errors import Gym4RealError
 ENV_ID_HELP = "an installed environment id, e.g. gym4real/elevator-v0 (`gym4real list` shows them)"
 
 
-def command(sub: Any, name: str, text: str, run: Callable[[argparse.Namespace], None]) -> argparse.ArgumentParser:
-    """A sub-command ``name`` of ``sub`` that runs ``run(args)``; its help is ``text``."""
+def command(
+    sub: Any, name: str, text: str, run: Callable[[argparse.Namespace], None], extra: str | None = None
+) -> argparse.ArgumentParser:
+    """A sub-command ``name`` of ``sub`` that runs ``run(args)``; its help is ``text``.
+
+    ``extra``: the extra of gym4real-core it needs (``bench``), checked before it runs (the error names it).
+    """
     parser: argparse.ArgumentParser = sub.add_parser(name, help=text, description=text[0].upper() + text[1:] + ".")
-    parser.set_defaults(run=run)
+    parser.set_defaults(run=run, extra=extra)
+    parser.add_argument(
+        "--debug", action="store_true", help="on an error, its traceback (and your code's) instead of one line"
+    )
     return parser
 
 

@@ -11,7 +11,6 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import time
 from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -202,10 +201,12 @@ def _synthesize(args: argparse.Namespace) -> None:
         f"process(es), {module.expected_time(households, args.jobs)} (households already written are reused)",
         file=sys.stderr,
     )
-    progress = None if args.quiet else SynthesisProgress(f"synthesize {domain}")
-    path = module.synthesize(out, jobs=args.jobs, progress=progress, **kwargs)
-    if progress is not None:
-        progress.close()
+    from gym4real.bench.progress import ProgressDisplay
+
+    shown = None if args.quiet else ProgressDisplay(f"synthesize {domain}", unit="households")
+    path = module.synthesize(out, jobs=args.jobs, progress=shown.update if shown else None, **kwargs)
+    if shown is not None:
+        shown.close()
     digest = datasets.sha256_of(path)
     print(f"ok   {path} (SHA-256 {digest}; provenance in {path.with_suffix('.json').name})")
     published = module.PUBLISHED
@@ -218,36 +219,6 @@ def _synthesize(args: argparse.Namespace) -> None:
                 "version of richardsonpy or numpy?); runs trained on it are not comparable with docs/results'",
                 file=sys.stderr,
             )
-
-
-class SynthesisProgress:
-    """``progress(done, total)`` of a synthesis: a bar on a terminal, else a line at every tenth (a log stays short)."""
-
-    def __init__(self, label: str) -> None:
-        self.label = label
-        self.start = time.perf_counter()
-        self.bar: Any = None
-        self.shown = -1
-        if sys.stderr.isatty():
-            from tqdm import tqdm
-
-            self.bar = tqdm(desc=label, unit="household")
-
-    def __call__(self, done: int, total: int) -> None:
-        """``done`` of ``total`` households are written."""
-        if self.bar is not None:
-            self.bar.total = total
-            self.bar.update(done - self.bar.n)
-            return
-        tenth = done * 10 // max(total, 1)
-        if tenth > self.shown:
-            self.shown = tenth
-            print(f"{self.label}: {done}/{total} ({time.perf_counter() - self.start:.0f} s)", file=sys.stderr)
-
-    def close(self) -> None:
-        """Close the bar (a line-by-line log needs nothing)."""
-        if self.bar is not None:
-            self.bar.close()
 
 
 def _fetch_years(args: argparse.Namespace) -> None:

@@ -19,10 +19,19 @@ from gym4real.core.registry import base_env, registry
 
 
 def _list(args: argparse.Namespace) -> None:
+    from gym4real.core.install_hint import pip_install, unmet_requirements
     from gym4real.core.registry import list_envs, plugin_errors, registry
 
+    reg = registry()
+    unmet = {plugin: unmet_requirements(dist) for plugin, dist in reg.metadata.items()}
     for env_id in list_envs():
-        print(f"{env_id:34s} {registry().envs[env_id].description}")
+        plugin = reg.owners[env_id]
+        if missing := unmet.get(plugin):
+            dist = reg.distributions[plugin][0]
+            what = f"unavailable: {dist} needs {', '.join(missing)}, not installed here: `{pip_install(missing)}`"
+        else:
+            what = reg.envs[env_id].description
+        print(f"{env_id:34s} {what}")
     for err in plugin_errors():
         print(f"(unavailable) {err}", file=sys.stderr)
 

@@ -28,7 +28,7 @@ def _evaluate(args: argparse.Namespace) -> None:
 
         # the -mo ids train nothing, so no plan names their seeds: N is 0, 1, ..., N - 1
         mo_seeds = list(range(seeds)) if isinstance(seeds, int) else seeds
-        found = evaluate_mo(agents_of(args.policies), envs, mo_seeds, args.references, args.out)
+        found = evaluate_mo(agents_of(args.policies), envs, mo_seeds, args.references, args.out, args.episode_timeout)
         print(found.table())
         print(f'score.json (its "mo" section), mo_episodes.csv and Pareto plots written to {args.out}/')
         return
@@ -40,6 +40,7 @@ def _evaluate(args: argparse.Namespace) -> None:
         out=args.out,
         allow_non_causal=args.allow_non_causal,
         headroom=not args.no_headroom,
+        episode_timeout=args.episode_timeout,
     )
     print(result.table())
     print(f"score.json, CSVs, figures and report.md written to {args.out}/")
@@ -54,6 +55,7 @@ def add(sub: Any) -> None:
         "evaluate",
         "score your agent on the test protocols beside the reference runs (per env and a suite score)",
         _evaluate,
+        extra="bench",
     )
     ev.add_argument(
         "policies",
@@ -83,6 +85,13 @@ def add(sub: Any) -> None:
         "--allow-non-causal",
         action="store_true",
         help="accept a non-causal upper reference (hindsight, which knows the episode's exogenous data) as an agent",
+    )
+    ev.add_argument(
+        "--episode-timeout",
+        type=float,
+        metavar="SECONDS",
+        help="stop an agent that takes longer than this for one test episode, with an error naming where (default: "
+        "no limit)",
     )
     ev.add_argument(
         "--no-headroom",

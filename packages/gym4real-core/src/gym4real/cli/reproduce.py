@@ -67,6 +67,7 @@ def add(sub: Any) -> None:
         "reproduce",
         "train the paper's agents over seeds, test them beside the baselines, check the paper's claims",
         _reproduce,
+        extra="bench",
     )
     rep.add_argument("env_ids", nargs="*", metavar="ENV_ID", help=f"{ENV_ID_HELP} (several allowed)")
     rep.add_argument(

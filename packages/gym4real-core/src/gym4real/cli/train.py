@@ -28,7 +28,9 @@ def add(sub: Any) -> None:
     from gym4real.rl.presets import ALGOS
     from gym4real.rl.train import TRAINERS
 
-    train = command(sub, "train", "train an RL agent with a registered preset or a YAML preset file", _train)
+    train = command(
+        sub, "train", "train an RL agent with a registered preset or a YAML preset file", _train, extra="bench"
+    )
     train.add_argument("env_id", help=ENV_ID_HELP)
     train.add_argument("--algo", required=True, choices=ALGOS, help=f"algorithm: {', '.join(ALGOS)}")
     train.add_argument(

@@ -8,7 +8,6 @@ key, then validated. An unknown key or a wrong type raises :class:`ConfigError` 
 
 from __future__ import annotations
 
-import difflib
 import reprlib
 import warnings
 from collections.abc import Mapping
@@ -20,6 +19,7 @@ import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from gym4real.core.errors import ConfigError, Gym4RealError
+from gym4real.core.suggest import nearest
 
 Fidelity = Literal["corrected", "upstream"]
 
@@ -133,7 +133,7 @@ def nearest_field(schema: type[BaseModel], loc: tuple[str | int, ...]) -> str:
         model = field.annotation if field is not None else None
         if not (isinstance(model, type) and issubclass(model, BaseModel)):
             return ""
-    near = difflib.get_close_matches(str(loc[-1]), list(model.model_fields), n=1, cutoff=0.6)
+    near = nearest(str(loc[-1]), model.model_fields, n=1, cutoff=0.6)
     return f" (did you mean `{'.'.join([*map(str, loc[:-1]), near[0]])}`?)" if near else ""
 
 

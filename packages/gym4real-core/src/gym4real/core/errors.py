@@ -44,6 +44,10 @@ class PluginLoadError(Gym4RealError, ImportError):
     """One or more ``gym4real.plugins`` entry points failed to load or to register."""
 
 
+class MissingDependencyError(Gym4RealError, ImportError):
+    """A library that an installed distribution needs is not installed; the message names the ``pip install``."""
+
+
 class EnvUnavailableError(Gym4RealError, LookupError):
     """An environment id is unknown, or its plugin is not installed or failed to load."""
 

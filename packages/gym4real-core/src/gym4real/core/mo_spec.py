@@ -150,15 +150,42 @@ class MultiObjectiveSpec:
         MO-Gymnasium's ``LinearReward(env, weights=...)``.
 
         Args:
-            weights: One weight per objective.
+            weights: One weight per objective (finite, non-negative, not all 0).
             components: The vector reward's entries, in order (the env's ``components``).
+
+        Raises:
+            ConfigError: Weights that are not one finite non-negative number per objective, or all 0
+                (:meth:`checked_weights`).
         """
-        if len(weights) != len(self.objectives):
-            raise ConfigError(
-                f"`{self.env_id}` has {len(self.objectives)} objectives {list(self.names)}; got {len(weights)} weights"
-            )
-        of = {c: w for o, w in zip(self.objectives, weights, strict=True) for c in o.components}
-        return np.array([float(of.get(c, 0.0)) for c in components])
+        w = self.checked_weights(weights)
+        of = {c: float(x) for o, x in zip(self.objectives, w, strict=True) for c in o.components}
+        return np.array([of.get(c, 0.0) for c in components])
+
+    def checked_weights(self, weights: Sequence[float]) -> np.ndarray:
+        """``weights`` as a float array, once checked: one finite, non-negative weight per objective, not all 0.
+
+        Raises:
+            ConfigError: Naming each weight that is wrong (its objective and value), or that they are all 0,
+                with what is expected.
+        """
+        expected = (
+            f"`{self.env_id}` has {len(self.objectives)} objectives {list(self.names)}: it takes one finite, "
+            "non-negative weight each, not all 0"
+        )
+        try:
+            w = np.asarray(weights, dtype=float)
+        except (TypeError, ValueError):
+            raise ConfigError(f"{expected}; got {weights!r}, which are not numbers") from None
+        if w.shape != (len(self.objectives),):
+            raise ConfigError(f"{expected}; got {np.asarray(weights).tolist()!r} (shape {w.shape})")
+        wrong = [
+            f"{name} = {x}" for name, x in zip(self.names, w.tolist(), strict=True) if not (math.isfinite(x) and x >= 0)
+        ]
+        if wrong:
+            raise ConfigError(f"{expected}; got {w.tolist()}: {', '.join(wrong)}")
+        if not w.sum() > 0:
+            raise ConfigError(f"{expected}; got {w.tolist()}, all 0: no objective would count")
+        return w
 
     def component_weights(self, weights: Sequence[float]) -> dict[str, float]:
         """Each component of an objective with its objective's weight: the weighted scalarisation per step.
@@ -167,14 +194,9 @@ class MultiObjectiveSpec:
         times the objective vector (:meth:`values`); for a planner that optimises the weighted objective.
 
         Raises:
-            ConfigError: Not one finite, non-negative weight per objective, or all of them 0.
+            ConfigError: Not one finite, non-negative weight per objective, or all of them 0 (:meth:`checked_weights`).
         """
-        w = np.asarray(weights, dtype=float)
-        if w.shape != (len(self.objectives),) or not np.isfinite(w).all() or (w < 0).any() or not w.sum() > 0:
-            raise ConfigError(
-                f"`{self.env_id}` takes {len(self.objectives)} finite non-negative weights, not all 0, over its "
-                f"objectives {list(self.names)}; got {np.asarray(weights).tolist()}"
-            )
+        w = self.checked_weights(weights)
         return {c: float(x) for o, x in zip(self.objectives, w, strict=True) for c in o.components}
 
     def record(self) -> dict[str, Any]:

@@ -12,7 +12,6 @@ and every other plugin still loads.
 
 from __future__ import annotations
 
-import difflib
 import functools
 import importlib
 import itertools
@@ -21,15 +20,16 @@ import os
 import sys
 from collections.abc import Iterable
 from dataclasses import dataclass, field
+from importlib import metadata as importlib_metadata
 from typing import Any, NoReturn, cast
 
-import importlib_metadata
 import pluggy
 
 from gym4real.core import hookspecs
 from gym4real.core.errors import EnvUnavailableError, PluginLoadError
 from gym4real.core.hookspecs import PLUGIN_API_VERSION
 from gym4real.core.specs import BaselineSpec, BenchmarkSpec, DatasetSpec, EnvSpec, TrainingSpec
+from gym4real.core.suggest import did_you_mean
 
 ENTRY_POINT_GROUP = "gym4real.plugins"
 
@@ -94,6 +94,7 @@ class Registry:
     trainings: dict[tuple[str, str, str], TrainingSpec] = field(default_factory=dict)
     owners: dict[str, str] = field(default_factory=dict)  # env id or record key -> plugin
     distributions: dict[str, tuple[str, str]] = field(default_factory=dict)  # plugin -> (dist, version)
+    metadata: dict[str, importlib_metadata.Distribution] = field(default_factory=dict)  # plugin -> its installed dist
     errors: list[PluginError] = field(default_factory=list)
     rejected: dict[str, str] = field(default_factory=dict)  # env id of a plugin that was not registered -> plugin
     multi_objective: dict[str, str] = field(default_factory=dict)  # vector-reward id -> the env it wraps
@@ -182,6 +183,8 @@ def _load_plugins(reg: Registry) -> pluggy.PluginManager:
     for name in sorted(by_name):
         claimants = [(dist, ep) for (dist, _), ep in by_name[name].items()]
         reg.distributions[name] = claimants[0][0]
+        if claimants[0][1].dist is not None:
+            reg.metadata[name] = claimants[0][1].dist
         if len(claimants) > 1:
             _name_conflict(reg, name, claimants)
             continue
@@ -491,6 +494,11 @@ def _unavailable_error(reg: Registry, env_id: str) -> EnvUnavailableError:
     failed = [e for e in reg.errors if e.plugin in (domain, reg.rejected.get(env_id))]
     if failed:
         return EnvUnavailableError(f"environment `{env_id}` is provided by {failed[0]}")
+    if domain in _disabled() and domain not in reg.distributions:
+        return EnvUnavailableError(
+            f"environment `{env_id}` is provided by plugin `{domain}`, which GYM4REAL_DISABLE_PLUGINS disables: "
+            "remove it from that variable"
+        )
     if env_id in CANONICAL_IDS or (domain in KNOWN_DOMAINS and domain not in reg.distributions):
         from gym4real.core.install_hint import install_command
 
@@ -498,23 +506,26 @@ def _unavailable_error(reg: Registry, env_id: str) -> EnvUnavailableError:
         return EnvUnavailableError(
             f"environment `{env_id}` is provided by `{dist}`, which is not installed: {install_command(dist)}"
         )
-    near = difflib.get_close_matches(env_id, list(reg.envs), n=3, cutoff=0.5)
-    hint = f" Did you mean {', '.join(f'`{n}`' for n in near)}?" if near else ""
+    hint = did_you_mean(env_id, reg.envs)
     return EnvUnavailableError(f"unknown environment `{env_id}`.{hint} Installed: {sorted(reg.envs)}")
 
 
 def _failed_ids(reg: Registry) -> list[str]:
-    """The ids of the plugins that failed: the ids they returned, and the paper's ids of a failed domain."""
+    """The ids that cannot be made.
+
+    Those a failed plugin returned, and the paper's ids of a domain that failed, is not installed or is disabled.
+    """
     failed = {e.plugin for e in reg.errors}
-    ids = {*reg.rejected, *(i for i in CANONICAL_IDS if domain_of(i) in failed)}
-    return sorted(ids - set(reg.envs))
+    absent = {i for i in CANONICAL_IDS if domain_of(i) in failed or domain_of(i) not in reg.distributions}
+    return sorted({*reg.rejected, *absent} - set(reg.envs))
 
 
 def register_envs() -> list[str]:
     """Register every discovered environment with Gymnasium (string entry points, no heavy import).
 
-    The id of a plugin that failed is registered with :data:`UNAVAILABLE`, so that ``gymnasium.make`` raises
-    the plugin's error and its fix, not Gymnasium's ``NameNotFound``.
+    The id of a plugin that failed, and each of the paper's ids whose domain is not installed, is registered with
+    :data:`UNAVAILABLE`, so that ``gymnasium.make`` raises the plugin's error or the ``pip install`` of the
+    domain, not Gymnasium's ``NameNotFound``.
 
     Returns:
         The ids registered by this call (ids already registered with the same entry point are skipped).

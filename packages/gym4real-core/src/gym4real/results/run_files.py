@@ -1,8 +1,9 @@
 """The files of a training run's folder, checked whole before ``reproduce`` reuses or resumes the run.
 
 A run folder holds JSON records (``settings.json``, ``run.json``, ``checkpoint/state.json``, ...), numpy
-archives (``qtable.npz``, ``checkpoint.npz``, ``normalize.npz``, DQN's ``buffer.npz``) and SB3 models
-(``model.zip``). A file cut short (a full disk, a copy interrupted midway) would otherwise fail deep inside
+archives (``qtable.npz``, ``checkpoint.npz``, ``normalize.npz``, DQN's ``buffer.npz``), SB3 models
+(``model.zip``) and the learning curve (``curve.csv``: every row as wide as its header, numbers only, and the
+line break pandas ends it with; a file cut short ends mid-row). A file cut short (a full disk, a copy interrupted midway) would otherwise fail deep inside
 training or testing with an error that names neither the file nor the run. :func:`damaged_file` reads each
 of them whole; :class:`DamagedRunError` names the file and the run, and the folder is left as it is, unless
 the user asks to move it aside and train the run again (:func:`move_aside`, ``reproduce --retrain-damaged``).
@@ -12,6 +13,8 @@ midway) are not the run's files and are not read.
 
 from __future__ import annotations
 
+import csv
+import io
 import json
 import time
 import zipfile
@@ -21,8 +24,9 @@ import numpy as np
 
 from gym4real.core.errors import Gym4RealError
 
-#: The suffixes of the files that are checked, and how: JSON parsed, numpy archives and zip files read whole.
-CHECKED = (".json", ".npz", ".zip")
+#: The suffixes of the files that are checked, and how: JSON parsed, numpy archives and zip files read whole,
+#: CSV tables read row by row.
+CHECKED = (".json", ".npz", ".zip", ".csv")
 
 
 class DamagedRunError(Gym4RealError):
@@ -42,6 +46,8 @@ def _read_whole(path: Path) -> None:
     """Read ``path`` as its suffix says, raising what the reader raises on a damaged file."""
     if path.suffix == ".json":
         json.loads(path.read_text())
+    elif path.suffix == ".csv":
+        _read_table(path.read_text())
     elif path.suffix == ".npz":
         with np.load(path, allow_pickle=False) as archive:
             for name in archive.files:
@@ -51,6 +57,23 @@ def _read_whole(path: Path) -> None:
             bad = archive.testzip()
             if bad is not None:
                 raise zipfile.BadZipFile(f"member `{bad}` fails its CRC check")
+
+
+def _read_table(text: str) -> None:
+    """Check a CSV table written whole: a header, rows as wide as it of numbers (or empty cells), a final line break.
+
+    Raises:
+        ValueError: What is wrong and where (a table cut short ends without its line break, or mid-row).
+    """
+    if not text.endswith("\n"):
+        raise ValueError("it does not end with a line break (cut short?)")
+    header, *rows = csv.reader(io.StringIO(text))
+    for number, row in enumerate(rows, start=2):
+        if len(row) != len(header):
+            raise ValueError(f"line {number} has {len(row)} fields, its header {len(header)}")
+        for cell in row:
+            if cell:
+                float(cell)  # ValueError naming the cell
 
 
 def damaged_file(folder: Path) -> tuple[Path, str] | None:

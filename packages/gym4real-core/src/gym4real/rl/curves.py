@@ -9,6 +9,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from gym4real.rl.storage import write_whole
+
 
 class LearningCurve:
     """Rows of (training progress, evaluation returns), written as ``curve.csv`` and ``curve.png``.
@@ -71,11 +73,11 @@ class LearningCurve:
         return fig
 
     def write(self) -> None:
-        """Write the CSV and the figure."""
+        """Write the CSV (whole or not at all: a run killed midway keeps the previous one) and the figure."""
         import matplotlib.pyplot as plt
 
         self.out.mkdir(parents=True, exist_ok=True)
-        pd.DataFrame(self.rows).to_csv(self.csv, index=False)
+        write_whole(self.csv, lambda path: pd.DataFrame(self.rows).to_csv(path, index=False))
         fig = self.figure()
         fig.savefig(self.out / "curve.png", dpi=110)
         plt.close(fig)

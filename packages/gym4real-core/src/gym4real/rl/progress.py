@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+from gym4real.bench.progress import ProgressDisplay
+
 Progress = Callable[[int, int], None]
 """``progress(done, total)``: a trainer's progress in its unit (episodes or timesteps)."""
 
@@ -23,23 +25,22 @@ class PlanProgress:
         self.running: dict[int, float] = {}
         self.bar = None
         if show:
-            from tqdm.auto import tqdm
-
-            self.bar = tqdm(
-                total=total,
-                desc="reproduce",
+            self.bar = ProgressDisplay(
+                "reproduce",
+                total,
+                "runs and tests",
                 bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.2f}/{total} runs and tests [{elapsed}<{remaining}]",
             )
 
     def _show(self) -> None:
         if self.bar is not None:
-            self.bar.update(self.closed + sum(self.running.values()) - self.bar.n)
+            self.bar.update(self.closed + sum(self.running.values()))
 
     def item(self, env_id: str, done: int, total: int, key: int = -1) -> None:
         """Item ``key`` has ``done`` of its ``total`` units done (a trainer may overshoot its budget)."""
         self.running[key] = min(done / max(total, 1), 1.0)
         if self.bar is not None:
-            self.bar.set_description(f"reproduce {_slug(env_id)}", refresh=False)
+            self.bar.describe(f"reproduce {_slug(env_id)}")
         self._show()
 
     def retry(self, key: int, message: str) -> None:

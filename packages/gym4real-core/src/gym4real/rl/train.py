@@ -17,6 +17,7 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
+from gym4real.bench.progress import ProgressDisplay
 from gym4real.bench.seeds import is_preset_file
 from gym4real.bench.versions import cpu_model, git_version
 from gym4real.core.errors import ConfigError
@@ -188,10 +189,9 @@ def train(
     last_write = start
     bar = None
     if progress is True:
-        from tqdm.auto import tqdm
-
-        unit = "episode" if algo in ("qlearning", "sarsa") else "step"
-        bar = tqdm(desc=f"{label(algo, trainer)} {env_id}", unit=unit)
+        bar = ProgressDisplay(
+            f"{label(algo, trainer)} {env_id}", unit="episodes" if algo in ("qlearning", "sarsa") else "steps"
+        )
 
     def report(done: int, total: int) -> None:
         nonlocal last_write
@@ -200,8 +200,7 @@ def train(
             timing.write_text(json.dumps({"wall_time_s": previous + now - start}))
             last_write = now
         if bar is not None:
-            bar.total = total
-            bar.update(done - bar.n)
+            bar.update(done, total)
         elif callable(progress):
             progress(done, total)
 

@@ -318,6 +318,9 @@ def synthesize(
 def fit_figure(standin_csv: str | Path, test_csv: str | Path, out: str | Path) -> Path:
     """The stand-in beside the real test households: mean daily profile (weekdays, weekends) and annual energy.
 
+    A figure of the docs, drawn with matplotlib (the ``bench`` extra of gym4real-core, not a dependency of this
+    distribution).
+
     Args:
         standin_csv: A stand-in file (:func:`synthesize`).
         test_csv: The test households (``microgrid/demand/profiles_test.csv``).

@@ -14,6 +14,11 @@ import ctypes.util
 import os
 import sys
 
+from gym4real.core.install_hint import declared_requirement, missing_dependency
+
+#: The distribution that declares MuJoCo.
+DIST = "gym4real-robofeeder"
+
 _EGL_PLATFORM_DEVICE_EXT = 0x313F
 
 #: What was chosen and why (reported by ``gym4real info``).
@@ -112,6 +117,26 @@ def backend_error(cause: BaseException | None = None) -> str:
     )
 
 
+def import_error(exc: BaseException) -> ImportError:
+    """The error of a failed ``import mujoco``.
+
+    The ``pip install`` when it is missing; the GL backend's libraries only when the user chose the backend
+    (``MUJOCO_GL``) and the failure is about OpenGL; else the failure itself and how to reinstall MuJoCo.
+    """
+    if isinstance(exc, ModuleNotFoundError) and exc.name == "mujoco":
+        return missing_dependency(DIST, "mujoco", "mujoco")
+    what = f"{type(exc).__name__}: {' '.join(str(exc).split())}"
+    about_gl = any(word in f"{what} {getattr(exc, 'name', '')}".lower() for word in ("opengl", "egl", "osmesa", "glfw"))
+    if CHOICE.get("reason") == "MUJOCO_GL set by the user" and about_gl:
+        return ImportError(
+            f"`import mujoco` failed with MUJOCO_GL={os.environ.get('MUJOCO_GL', '')!r} ({what}). Install that "
+            "backend's library (`libosmesa6` for osmesa, `libegl1` and `libgl1-mesa-dri` for egl) or unset MUJOCO_GL "
+            "to let gym4real.robofeeder choose one."
+        )
+    reinstall = f'pip install --force-reinstall "{declared_requirement(DIST, "mujoco")}"'
+    return ImportError(f"`import mujoco` failed ({what}); reinstall it: `{reinstall}`")
+
+
 select_backend()
 
 # Only now: MuJoCo fixes its OpenGL backend when first imported. Modules of this package import
@@ -119,11 +144,6 @@ select_backend()
 try:
     import mujoco
 except (AttributeError, ImportError, OSError) as _exc:  # e.g. MUJOCO_GL=osmesa without libOSMesa (PyOpenGL fails)
-    _msg = (
-        f"`import mujoco` failed with MUJOCO_GL={os.environ.get('MUJOCO_GL', '')!r} "
-        f"({type(_exc).__name__}: {_exc}). Install that backend's library (`libosmesa6` for osmesa, `libegl1` "
-        "and `libgl1-mesa-dri` for egl) or unset MUJOCO_GL to let gym4real.robofeeder choose one."
-    )
-    raise ImportError(_msg) from _exc
+    raise import_error(_exc) from None
 
 __all__ = ["CHOICE", "backend_error", "context_class", "mujoco", "select_backend"]

@@ -15,6 +15,7 @@ from typing import Literal
 import numpy as np
 
 from gym4real.core.errors import DataFileError, PolicyError
+from gym4real.core.install_hint import require
 
 ACTION_NET_WEIGHT = "policy.action_net.weight"
 LOG_STD = "policy.log_std"
@@ -22,9 +23,9 @@ LOG_STD = "policy.log_std"
 
 def _load(path: Path) -> tuple[object, str, np.ndarray | None, tuple[int, ...]]:
     """Session with the action-net output exposed; its name, ``log_std`` and the input shape."""
-    import onnx
-    import onnxruntime as ort
-    from onnx import numpy_helper
+    onnx = require("onnx", "gym4real-robofeeder", "onnx")
+    ort = require("onnxruntime", "gym4real-robofeeder", "onnxruntime")
+    numpy_helper = require("onnx.numpy_helper", "gym4real-robofeeder", "onnx")
 
     if not path.is_file():
         raise DataFileError(f"pretrained agent `{path}` does not exist")

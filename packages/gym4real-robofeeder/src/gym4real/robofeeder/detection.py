@@ -16,11 +16,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol
 
-import cv2
 import numpy as np
 
 from gym4real.core.errors import ConfigError, DataFileError
+from gym4real.core.install_hint import require
 from gym4real.robofeeder.rendering import grayscale
+
+cv2 = require("cv2", "gym4real-robofeeder", "opencv-python-headless")
 
 
 @dataclass(frozen=True)
@@ -132,8 +134,7 @@ class OnnxDetector:
     """
 
     def __init__(self, path: str | Path, min_score: float = 0.5) -> None:
-        import onnxruntime as ort
-
+        ort = require("onnxruntime", "gym4real-robofeeder", "onnxruntime")
         path = Path(path)
         if not path.is_file() or path.stat().st_size == 0:
             msg = f'ONNX detector `{path}` is missing or empty; pass `detector="classical"` or a valid model'

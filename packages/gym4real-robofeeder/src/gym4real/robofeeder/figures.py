@@ -9,7 +9,9 @@
   (the paper: 50 episodes x 5 seeds per point).
 
 ``gym4real bench`` draws them through the protocol's figures hooks (:func:`bench_heatmap`,
-:func:`bench_planning`), for the policies it benchmarked; both write a PNG and a CSV.
+:func:`bench_planning`), for the policies it benchmarked; both write a PNG and a CSV. They draw with
+matplotlib, which the harness brings (the ``bench`` extra of gym4real-core), not this distribution: the
+environments never import this module.
 """
 
 from __future__ import annotations

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gym4real.core.errors import ConfigError
+from gym4real.core.install_hint import require
 from gym4real.robofeeder._gl import mujoco
 from gym4real.robofeeder.camera import CameraModel
 from gym4real.robofeeder.config import RoboFeederConfig
@@ -97,8 +98,7 @@ def footprint_centre(model: mujoco.MjModel, resolution: float = 1e-4) -> np.ndar
 
     The part's visual mesh is rasterised on a 0.1 mm grid.
     """
-    import cv2
-
+    cv2 = require("cv2", "gym4real-robofeeder", "opencv-python-headless")
     g = model.geom("obj0").id
     mesh = model.geom_dataid[g]
     verts = model.mesh_vert[model.mesh_vertadr[mesh] : model.mesh_vertadr[mesh] + model.mesh_vertnum[mesh]]

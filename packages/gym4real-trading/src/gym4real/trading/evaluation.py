@@ -3,7 +3,8 @@
 ``gym4real bench gym4real/trading-v0`` runs :func:`test_episodes` and writes the core's table and
 figures (its boxplot is the daily P&L); :func:`pnl_figures`, registered as the protocol's figures,
 adds the paper's two figures over the days: the cumulative P&L (% of capital) and the boxplot of the
-daily P&L (%).
+daily P&L (%). They draw with matplotlib, which the harness brings (the ``bench`` extra of gym4real-core),
+not this distribution; the environment never draws them.
 """
 
 from __future__ import annotations
