@@ -35,7 +35,7 @@ from gym4real.bench.mo_reference import Build, MOReference, load, run_objectives
 from gym4real.bench.policies import build_policy, is_user_object, make_policy, user_policy
 from gym4real.core.errors import ConfigError
 from gym4real.core.mo_spec import SweepPolicy, mo_ids, mo_spec
-from gym4real.core.registry import load_object, slug
+from gym4real.core.registry import MARK, load_object, non_causal, slug
 
 #: What a member of a set of policies may be: a policy string or a factory (or a sweep's policy).
 Member = str | Callable[..., Any]
@@ -325,10 +325,15 @@ def pareto_plot(result: MOResult, path: Path) -> Path:
         front = front[np.argsort(-front[:, 0])]
         ax.step(front[:, 0], front[:, 1], where="post", **style)
 
+    upper = set(non_causal(result.env_id))
     for name, front in ref.fronts.items():
         means = front.means
+        if name in upper or front.kind in upper:  # a non-causal upper reference: its own marker and label
+            ax.plot(means[:, 0], means[:, 1], "*", color="black", ms=8, alpha=0.6)
+            staircase(means, color="black", linestyle=":", label=f"{name} ({MARK})")
+            continue
         line = ax.plot(means[:, 0], means[:, 1], "o", alpha=0.35, ms=4)[0]
-        staircase(means, color=line.get_color(), label=f"{name} ({front.kind})")
+        staircase(means, color=line.get_color(), label=name if name == front.kind else f"{name} ({front.kind})")
     for agent, run in result.runs.items():
         means = run.means
         line = ax.plot(means[:, 0], means[:, 1], "s", ms=6)[0]
