@@ -249,7 +249,11 @@ class MOEvaluation:
         return {env_id: result.score() for env_id, result in self.results.items()}
 
     def table(self) -> str:
-        """The evaluation as text: per id, each agent's and reference front's hypervolume and EUM."""
+        """The evaluation as text: per id, each agent's and reference front's hypervolume and EUM.
+
+        Every line but an id's heading fits in :data:`TABLE_WIDTH` columns (a page's code block shows it
+        without cutting it).
+        """
         lines = []
         for env_id, result in self.results.items():
             ref = result.reference
@@ -257,26 +261,25 @@ class MOEvaluation:
             lines.append(f"== {env_id}  objectives: {names}")
             point = ", ".join(f"{v:.6g}" for v in ref.scale.reference_point)
             lines.append(f"   reference point ({point}); {ref.record['weights']['count']} EUM weights; {ref.source}")
-            lines.append(f"   {'front':28s} {'kind':10s} {'hypervolume [95% CI]':>30s} {'EUM [95% CI]':>30s}")
+            lines.append(f"   {'front':20s} {'kind':10s} {'hypervolume [95% CI]':>28s} {'EUM [95% CI]':>28s}")
             for agent in result.runs:
                 rec = result.record(agent)
-                hv, eum = rec["hypervolume"], rec["eum"]
-                lines.append(
-                    f"   {agent:28s} {'agent':10s} {_text(hv):>30s} {_text(eum):>30s}"
-                    f"   ({rec['policies']} policies, {rec['seeds']} seed(s))"
-                )
+                lines.append(f"   {agent:20s} {'agent':10s} {_text(rec['hypervolume']):>28s} {_text(rec['eum']):>28s}")
             for name, front in ref.record["fronts"].items():
-                lines.append(f"   {name:28s} {front['kind']:10s} {front['hypervolume']:>30.4f} {front['eum']:>30.4f}")
+                lines.append(f"   {name:20s} {front['kind']:10s} {front['hypervolume']:>28.4f} {front['eum']:>28.4f}")
             for agent in result.runs:
+                rec = result.record(agent)
+                lines.append(f"   {agent}: {rec['policies']} policies, {rec['seeds']} seed(s)")
+            for agent in result.runs:
+                lines.append(f"   {'gap: front - agent':31s} {'hypervolume [95% CI]':>28s} {'EUM [95% CI]':>28s}")
                 for name, gap in result.record(agent)["gap"].items():
-                    lines.append(
-                        f"   gap {name} - {agent}: hypervolume {_text(gap['hypervolume'])}, EUM {_text(gap['eum'])}"
-                    )
+                    pair = f"{name} - {agent}"
+                    lines.append(f"   {pair:31s} {_text(gap['hypervolume']):>28s} {_text(gap['eum']):>28s}")
             lines.append("")
-        lines.append(
-            "   normalised scale: reference point 0, random's best test episode 1 per objective; gap > 0: the "
-            "reference front is ahead"
-        )
+        lines += [
+            "   normalised scale: reference point 0, random's best test episode 1 per objective;",
+            "   gap > 0: the reference front is ahead",
+        ]
         return "\n".join(lines)
 
     def episodes(self) -> pd.DataFrame:
@@ -303,6 +306,10 @@ class MOEvaluation:
         self.episodes().to_csv(written[1], index=False)
         written += [pareto_plot(result, out / f"pareto-{slug(e)}.png") for e, result in self.results.items()]
         return written
+
+
+#: The width every line of :meth:`MOEvaluation.table` but an id's heading keeps within.
+TABLE_WIDTH = 100
 
 
 def _text(interval: Mapping[str, float]) -> str:
