@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import json
 import re
+from collections.abc import Callable
 from pathlib import Path
+from types import ModuleType
 
 import pandas as pd
 import pytest
@@ -135,3 +137,14 @@ def test_the_readme_counts_the_sections_and_the_stand_in_budget_as_the_results_d
     presets = ROOT / "packages" / "gym4real-trading" / "src" / "gym4real" / "trading" / "rl"
     for algo in ("dqn", "ppo"):  # the appendix's budget, the `paper` preset's
         assert yaml.safe_load((presets / f"{algo}_paper.yaml").read_text())["total_timesteps"] == paper
+
+
+def test_the_fingerprint_sentences_name_no_empty_file_count_and_no_dirty_suffix(
+    load_script: Callable[[Path], ModuleType],
+) -> None:
+    verify = load_script(ROOT / "scripts" / "verify_fingerprints.py")
+    assert verify.code_words("ba1df74-dirty") == "ba1df74 with uncommitted changes"
+    assert verify.code_words("ba1df74") == "ba1df74"
+    assert verify.data_words({}, []) == "the env reads no data file, so there is none to compare"
+    two = verify.data_words({"a.csv": "1", "b.csv": "2"}, ["b.csv"])
+    assert two.startswith("the SHA-256 of the 2 data files read") and two.endswith("copies found here: b.csv")
