@@ -15,6 +15,7 @@ shared with other jobs). `gym4real evaluate --mo` and `gym4real.evaluate_mo` nee
 # The domain declares the objectives, each a sum of reward components over a test episode, maximised;
 # the reference point and the fronts come with the domain (`gym4real info gym4real/wds-mo-v0` shows them).
 import tempfile
+import textwrap
 from pathlib import Path
 
 import gymnasium as gym
@@ -32,7 +33,7 @@ evaluation = summary(ENV_ID)
 for objective in spec.objectives:
     print(f"{objective.name}: {' + '.join(objective.components)}")
 print("reference point:", evaluation["reference_point"])
-print("rule:", evaluation["reference_point_rule"])
+print(textwrap.fill(f"rule: {evaluation['reference_point_rule']}", width=100))
 
 # %%
 # ## Train one PPO per weight
