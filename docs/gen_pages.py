@@ -218,6 +218,8 @@ FIGURE_WHAT = {
 def figure_caption(png: str, run: dict[str, Any]) -> str:
     """The caption of a bench figure: what it shows, the policies, the episodes and the objective.
 
+    A non-causal upper reference is named apart from the ranked policies, as the figures draw it.
+
     Args:
         png: The figure's file name.
         run: The bench run's ``results.json``.
@@ -233,10 +235,13 @@ def figure_caption(png: str, run: dict[str, Any]) -> str:
         objective = f"{' + '.join(run['objective'])} per episode, the same quantity as the return (training reward)"
     else:
         objective = f"{' + '.join(run['objective'])} per episode (not the return, the training reward)"
-    policies = ", ".join(f"<code>{p}</code>" for p in run["ranking"])
+    upper = set(non_causal(run["env_id"]))
+    policies = ", ".join(f"<code>{p}</code>" for p in run["ranking"] if p not in upper)
+    references = [f"<code>{p}</code>" for p in run["ranking"] if p in upper]
+    apart = f"; then the {MARK} {', '.join(references)}, drawn apart (black star), not ranked" if references else ""
     return (
-        f"{what}. Policies {policies}, best first by the IQM of the objective; {len(run['episodes'])} episodes each, "
-        f"{where}. Objective: {objective}; higher is better."
+        f"{what}. Policies {policies}, best first by the IQM of the objective{apart}; {len(run['episodes'])} episodes "
+        f"each, {where}. Objective: {objective}; higher is better."
     )
 
 

@@ -34,6 +34,21 @@ from gym4real.results import fingerprints
 from gym4real.rl.presets import load_preset
 
 
+def code_words(version: str | None) -> str:
+    """A code version for a sentence: ``ba1df74-dirty`` is ``ba1df74 with uncommitted changes``."""
+    text = str(version)
+    return f"{text.removesuffix('-dirty')} with uncommitted changes" if text.endswith("-dirty") else text
+
+
+def data_words(recorded: dict[str, str], differ: list[str]) -> str:
+    """How the data fingerprint compares here, in words (an env that reads no data file says so)."""
+    if not recorded:
+        return "the env reads no data file, so there is none to compare"
+    return f"the SHA-256 of the {len(recorded)} data files read, as report.json recorded them at run time" + (
+        f"; differ from the copies found here: {', '.join(differ)}" if differ else "; equal to the copies found"
+    )
+
+
 def verify_protocol(env_id: str, episodes: pd.DataFrame) -> str | None:
     """How the baselines' rerun matched ``episodes.csv``, or None when one episode differs."""
     baselines = list(protocol(env_id).policies)
@@ -48,8 +63,9 @@ def verify_protocol(env_id: str, episodes: pd.DataFrame) -> str | None:
             return None
         worst = max(worst, float(np.max(np.abs(mine - theirs))) if mine.size else 0.0)
     count = int(sum(episodes["policy"].isin(baselines)))
+    rerun_by = code_words(versions.code_version())
     return (
-        f"the {len(baselines)} baselines ({', '.join(baselines)}) rerun by {versions.code_version()} on the "
+        f"the {len(baselines)} baselines ({', '.join(baselines)}) rerun by {rerun_by} on the "
         f"installed protocol score the {count} baseline rows of episodes.csv (largest difference {worst:.3g})"
     )
 
@@ -60,10 +76,7 @@ def verify_data(report: dict[str, Any], installed: dict[str, str]) -> tuple[dict
     differ = sorted(k for k in recorded if recorded.get(k) != installed.get(k))
     if differ:
         print(f"  data: differs in {differ}")
-    return recorded, (
-        f"the SHA-256 of the {len(recorded)} data files read, as report.json recorded them at run time"
-        + (f"; differ from the copies found here: {', '.join(differ)}" if differ else "; equal to the copies found")
-    )
+    return recorded, data_words(recorded, differ)
 
 
 def verify_trainer(report: dict[str, Any], runs: pd.DataFrame, how: str) -> tuple[dict[str, Any] | None, str]:

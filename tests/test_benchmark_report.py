@@ -21,10 +21,12 @@ from gym4real.core.registry import registry
 from gym4real.results import analysis
 
 
-def result_of(returns: dict[str, list[float]], objective: tuple[str, ...] = ()) -> BenchmarkResult:
+def result_of(
+    returns: dict[str, list[float]], objective: tuple[str, ...] = (), env_id: str = "gym4real/elevator-v0"
+) -> BenchmarkResult:
     """A result whose episodes each have one step, the whole return (components: ``a`` a quarter, ``b`` the rest)."""
     n = len(next(iter(returns.values())))
-    result = BenchmarkResult("gym4real/elevator-v0", [{"seed": i} for i in range(n)], objective=objective)
+    result = BenchmarkResult(env_id, [{"seed": i} for i in range(n)], objective=objective)
     for name, rets in returns.items():
         result.returns[name] = rets
         result.rewards[name] = [np.array([r]) for r in rets]
@@ -123,6 +125,36 @@ def test_policies_whose_curves_coincide_are_told_apart() -> None:
     assert list(curves) == ["other", "p79", "p78"]  # best first
     legend = plots.legend_labels(result, curves)
     assert legend == {"other": "other", "p79": "p79", "p78": "p78 (overlaps p79)"}
+
+
+def test_the_upper_reference_is_drawn_apart_and_never_ranked_first_in_the_bench_figures(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    drawn: dict[str, matplotlib.figure.Figure] = {}
+    save = matplotlib.figure.Figure.savefig
+    monkeypatch.setattr(
+        matplotlib.figure.Figure,
+        "savefig",
+        lambda fig, path, **kw: drawn.setdefault(Path(path).name, fig) and save(fig, path, **kw),
+    )
+    # hindsight (dam's non-causal upper reference) scores best, yet is not ranked among the baselines
+    result = result_of({"hindsight": [9.0, 9.5], "max": [5.0, 6.0], "ead": [1.0, 2.0]}, env_id="gym4real/dam-v0")
+    assert result.ranking()[0] == "hindsight" and plots.plotted_order(result) == ["max", "ead", "hindsight"]
+    plots.save_figures(result, tmp_path)
+    curves = drawn["cumulative_reward.png"].axes[0]
+    legend = curves.get_legend()
+    assert [t.get_text() for t in legend.get_texts()] == ["max", "ead", "hindsight (non-causal upper reference)"]
+    assert "upper reference last" in legend.get_title().get_text()
+    means = {line.get_label(): line for line in curves.get_lines() if not line.get_label().startswith("_")}
+    upper = means.pop("hindsight (non-causal upper reference)")
+    assert upper.get_marker() == plots.UPPER_MARKER and upper.get_color() == plots.UPPER_COLOUR
+    assert all(line.get_marker() != plots.UPPER_MARKER and line.get_color() != "black" for line in means.values())
+    box = drawn["returns_boxplot.png"].axes[0]
+    ticks = [t.get_text() for t in box.get_xticklabels()]
+    assert ticks == ["max", "ead", "hindsight\n(non-causal upper reference)"]
+    assert "not ranked" in box.get_xlabel()
+    hatches = [patch.get_hatch() for patch in box.patches]
+    assert hatches == [None, None, "//"]  # only the upper reference's box is hatched
 
 
 def test_figures_name_the_step_unit_and_keep_the_legend_off_the_plot(tmp_path: Path, monkeypatch) -> None:

@@ -381,3 +381,21 @@ def test_env_page_figures_are_captioned_with_policies_episodes_and_objective(
         (tmp_path / "docs" / "envs" / "figures" / folder.name / png.name).is_file() for png in folder.glob("*.png")
     )
     assert gen_pages.best_baseline("gym4real/dam-v0", tmp_path / "results") == "max"  # by the objective's IQM
+
+
+def test_an_env_page_caption_names_the_upper_reference_apart_from_the_ranked_policies(
+    load_script: Callable[[Path], ModuleType],
+) -> None:
+    gen_pages = load_script(ROOT / "docs" / "gen_pages.py")
+    run = {
+        "env_id": "gym4real/dam-v0",
+        "protocol": {"test": True, "description": "the 13 test years"},
+        "objective": ["deficit", "overflow", "starving"],
+        "objective_is_return": False,
+        "ranking": ["hindsight", "max", "ead"],  # results.json ranks every policy by its IQM
+        "episodes": [{}] * 13,
+        "step_unit": "day",
+    }
+    caption = gen_pages.figure_caption("cumulative_reward.png", run)
+    assert "Policies <code>max</code>, <code>ead</code>, best first by the IQM of the objective; then the " in caption
+    assert "non-causal upper reference <code>hindsight</code>, drawn apart (black star), not ranked" in caption

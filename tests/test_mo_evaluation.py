@@ -434,6 +434,30 @@ def test_evaluate_mo_of_a_rule_based_sweep_reproduces_the_shipped_front(tmp_path
     assert (tmp_path / "mo_episodes.csv").read_text().count("\n") == 1 + 6 * 13
 
 
+def test_the_pareto_plot_draws_the_hindsight_front_as_a_non_causal_upper_reference(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import matplotlib.figure
+
+    from gym4real.bench.mo_eval import MOResult, pareto_plot
+
+    drawn: list[matplotlib.figure.Figure] = []
+    save = matplotlib.figure.Figure.savefig
+    monkeypatch.setattr(
+        matplotlib.figure.Figure, "savefig", lambda fig, path, **kw: drawn.append(fig) or save(fig, path, **kw)
+    )
+    shipped = mo_reference.load("gym4real/dam-mo-v0")
+    assert shipped is not None and "hindsight" in shipped.fronts
+    pareto_plot(MOResult("gym4real/dam-mo-v0", shipped, {}), tmp_path / "pareto.png")
+    ax = drawn[0].axes[0]
+    entries = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert "hindsight (non-causal upper reference)" in entries and "hindsight (hindsight)" not in entries
+    assert "rule_based" in entries  # a front named for its kind is not labelled twice
+    stars = [line for line in ax.lines if line.get_marker() == "*"]
+    assert len(stars) == 1 and len(stars[0].get_xdata()) == len(shipped.fronts["hindsight"].labels)
+    assert all(line.get_color() == "black" for line in stars)
+
+
 def test_the_env_page_documents_the_objectives_reference_point_and_fronts(load_script: Any) -> None:
     gen_pages = load_script(Path(__file__).resolve().parents[1] / "docs" / "gen_pages.py")
     text = "\n".join(gen_pages.mo_section("gym4real/dam-v0"))

@@ -312,6 +312,31 @@ def test_the_summary_figure_keeps_a_zero_width_interval_inside_its_axes() -> Non
     assert all(bottom < line.get_ydata()[0] < top for line in ax.lines)
 
 
+def test_the_summary_figure_draws_the_upper_reference_apart_and_last() -> None:
+    from gym4real.results import summary_figure
+
+    summary = pd.DataFrame(
+        [
+            {"policy": "max", "kind": "baseline", "iqm": -5.0, "low": -6.0, "high": -4.0},
+            {"policy": "ppo", "kind": "agent", "iqm": -3.0, "low": -3.5, "high": -2.5},
+            {"policy": "hindsight", "kind": "baseline", "iqm": -1.0, "low": -1.2, "high": -0.8},  # as summary.csv says
+            {"policy": "ead", "kind": "baseline", "iqm": -4.0, "low": -4.5, "high": -3.5},
+        ]
+    )
+    fig = summary_figure.figure([("gym4real/dam-v0", "objective", summary)])
+    ax = fig.axes[0]
+    ticks = {round(float(y)): t.get_text() for y, t in zip(ax.get_yticks(), ax.get_yticklabels(), strict=True)}
+    assert ticks[0] == "hindsight (non-causal upper reference)"  # the bottom row, below the others
+    assert ticks[3] == "max" and ticks[2] == "ppo (agent)" and ticks[1] == "ead"
+    points = {float(line.get_xdata()[0]): line for line in ax.lines if len(line.get_xdata()) == 1}
+    upper = points[-1.0]
+    assert upper.get_marker() == "*" and upper.get_color() == "black"
+    assert upper.get_label() == "non-causal upper reference"
+    assert all(line.get_marker() != "*" for x, line in points.items() if x != -1.0)
+    assert [line for line in ax.lines if line.get_linestyle() == ":"]  # the rule above it
+    assert "non-causal upper reference" in fig.get_suptitle()
+
+
 def test_the_workspace_heatmap_counts_each_episodes_success_in_its_cell(tmp_path: Path) -> None:
     from gym4real.results.workspace import success_grid
 

@@ -22,8 +22,9 @@ from gym4real.core import (
 if TYPE_CHECKING:  # imported lazily at run time (``__getattr__``)
     from gym4real.bench.benchmark import benchmark
     from gym4real.bench.evaluate import evaluate
+    from gym4real.bench.mo_eval import evaluate_mo
 
-__all__ = ["benchmark", "env_info", "evaluate", "list_envs", "make", "plugin_errors", "register_envs"]
+__all__ = ["benchmark", "env_info", "evaluate", "evaluate_mo", "list_envs", "make", "plugin_errors", "register_envs"]
 
 
 def __getattr__(name: str) -> object:
@@ -39,6 +40,10 @@ def __getattr__(name: str) -> object:
         from gym4real.bench.evaluate import evaluate
 
         return evaluate
+    if name == "evaluate_mo":  # imports pandas and scipy: only on first use
+        from gym4real.bench.mo_eval import evaluate_mo
+
+        return evaluate_mo
     raise AttributeError(f"module `gym4real` has no attribute `{name}`")
 
 

@@ -36,7 +36,7 @@ from gym4real.bench.mo_reference import Build, MOReference, load, run_objectives
 from gym4real.bench.policies import build_policy, is_user_object, make_policy, user_policy
 from gym4real.core.errors import ConfigError
 from gym4real.core.mo_spec import SweepPolicy, mo_ids, mo_spec
-from gym4real.core.registry import load_object, slug
+from gym4real.core.registry import MARK, load_object, non_causal, slug
 
 #: What a member of a set of policies may be: a policy string or a factory (or a sweep's policy).
 Member = str | Callable[..., Any]
@@ -275,7 +275,11 @@ class MOEvaluation:
         return {env_id: result.score() for env_id, result in self.results.items()}
 
     def table(self) -> str:
-        """The evaluation as text: per id, each agent's and reference front's hypervolume and EUM."""
+        """The evaluation as text: per id, each agent's and reference front's hypervolume and EUM.
+
+        Every line but an id's heading fits in :data:`TABLE_WIDTH` columns (a page's code block shows it
+        without cutting it).
+        """
         lines = []
         for env_id, result in self.results.items():
             ref = result.reference
@@ -283,26 +287,25 @@ class MOEvaluation:
             lines.append(f"== {env_id}  objectives: {names}")
             point = ", ".join(f"{v:.6g}" for v in ref.scale.reference_point)
             lines.append(f"   reference point ({point}); {ref.record['weights']['count']} EUM weights; {ref.source}")
-            lines.append(f"   {'front':28s} {'kind':10s} {'hypervolume [95% CI]':>30s} {'EUM [95% CI]':>30s}")
+            lines.append(f"   {'front':20s} {'kind':10s} {'hypervolume [95% CI]':>28s} {'EUM [95% CI]':>28s}")
             for agent in result.runs:
                 rec = result.record(agent)
-                hv, eum = rec["hypervolume"], rec["eum"]
-                lines.append(
-                    f"   {agent:28s} {'agent':10s} {_text(hv):>30s} {_text(eum):>30s}"
-                    f"   ({rec['policies']} policies, {rec['seeds']} seed(s))"
-                )
+                lines.append(f"   {agent:20s} {'agent':10s} {_text(rec['hypervolume']):>28s} {_text(rec['eum']):>28s}")
             for name, front in ref.record["fronts"].items():
-                lines.append(f"   {name:28s} {front['kind']:10s} {front['hypervolume']:>30.4f} {front['eum']:>30.4f}")
+                lines.append(f"   {name:20s} {front['kind']:10s} {front['hypervolume']:>28.4f} {front['eum']:>28.4f}")
             for agent in result.runs:
+                rec = result.record(agent)
+                lines.append(f"   {agent}: {rec['policies']} policies, {rec['seeds']} seed(s)")
+            for agent in result.runs:
+                lines.append(f"   {'gap: front - agent':31s} {'hypervolume [95% CI]':>28s} {'EUM [95% CI]':>28s}")
                 for name, gap in result.record(agent)["gap"].items():
-                    lines.append(
-                        f"   gap {name} - {agent}: hypervolume {_text(gap['hypervolume'])}, EUM {_text(gap['eum'])}"
-                    )
+                    pair = f"{name} - {agent}"
+                    lines.append(f"   {pair:31s} {_text(gap['hypervolume']):>28s} {_text(gap['eum']):>28s}")
             lines.append("")
-        lines.append(
-            "   normalised scale: reference point 0, random's best test episode 1 per objective; gap > 0: the "
-            "reference front is ahead"
-        )
+        lines += [
+            "   normalised scale: reference point 0, random's best test episode 1 per objective;",
+            "   gap > 0: the reference front is ahead",
+        ]
         return "\n".join(lines)
 
     def episodes(self) -> pd.DataFrame:
@@ -331,6 +334,10 @@ class MOEvaluation:
         return written
 
 
+#: The width every line of :meth:`MOEvaluation.table` but an id's heading keeps within.
+TABLE_WIDTH = 100
+
+
 def _text(interval: Mapping[str, float]) -> str:
     return f"{interval['value']:.4f} [{interval['low']:.4f}, {interval['high']:.4f}]"
 
@@ -351,10 +358,15 @@ def pareto_plot(result: MOResult, path: Path) -> Path:
         front = front[np.argsort(-front[:, 0])]
         ax.step(front[:, 0], front[:, 1], where="post", **style)
 
+    upper = set(non_causal(result.env_id))
     for name, front in ref.fronts.items():
         means = front.means
+        if name in upper or front.kind in upper:  # a non-causal upper reference: its own marker and label
+            ax.plot(means[:, 0], means[:, 1], "*", color="black", ms=8, alpha=0.6)
+            staircase(means, color="black", linestyle=":", label=f"{name} ({MARK})")
+            continue
         line = ax.plot(means[:, 0], means[:, 1], "o", alpha=0.35, ms=4)[0]
-        staircase(means, color=line.get_color(), label=f"{name} ({front.kind})")
+        staircase(means, color=line.get_color(), label=name if name == front.kind else f"{name} ({front.kind})")
     for agent, run in result.runs.items():
         means = run.means
         line = ax.plot(means[:, 0], means[:, 1], "s", ms=6)[0]

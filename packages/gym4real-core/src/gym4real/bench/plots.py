@@ -2,7 +2,11 @@
 
 Both plot the protocol's objective (the score; the return where the protocol names none), the policies
 best first by its IQM (:meth:`~gym4real.bench.benchmark.BenchmarkResult.ranking`), and their titles say
-which episodes they show. Policies are drawn by their short labels; each line has its own line style and
+which episodes they show. A non-causal upper reference (``hindsight``, ``oracle``:
+:func:`~gym4real.core.registry.non_causal`) is never ranked among them: it comes last, drawn in black with
+its own marker (:data:`UPPER_MARKER`) and labelled ``hindsight (non-causal upper reference)``.
+
+Policies are drawn by their short labels; each line has its own line style and
 marker, the markers at staggered steps so that lines which coincide stay visible, and a policy whose mean
 curve hides an earlier one's says so in the legend (``p79 (overlaps p78)``).
 """
@@ -10,22 +14,40 @@ curve hides an earlier one's says so in the legend (``p79 (overlaps p78)``).
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from gym4real.bench import stats
+from gym4real.core.registry import MARK, non_causal
 
 if TYPE_CHECKING:
     from gym4real.bench.benchmark import BenchmarkResult
 
 MARKERS = ("o", "s", "^", "D", "v", "P", "X", "<", ">", "*")
 LINESTYLES = ("-", "--", "-.", ":")
+#: The marker and colour of a non-causal upper reference, which no baseline or agent is drawn with.
+UPPER_MARKER = "*"
+UPPER_COLOUR = "black"
+
+
+def upper_references(result: BenchmarkResult) -> list[str]:
+    """The result's non-causal upper references (``hindsight``, ``oracle``), best first."""
+    upper = set(non_causal(result.env_id))
+    return [name for name in result.ranking() if name in upper]
+
+
+def plotted_order(result: BenchmarkResult) -> list[str]:
+    """The policies as the figures show them: the ranked ones best first, then the upper references."""
+    upper = upper_references(result)
+    return [name for name in result.ranking() if name not in upper] + upper
 
 
 def mean_curves(result: BenchmarkResult) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """Policy (best first) -> mean cumulative objective per step with its 95 % band (low, high)."""
-    return {name: stats.mean_band([np.cumsum(r) for r in result.objective_steps(name)]) for name in result.ranking()}
+    """Policy (best first, upper references last) -> mean cumulative objective per step with its 95 % band."""
+    return {
+        name: stats.mean_band([np.cumsum(r) for r in result.objective_steps(name)]) for name in plotted_order(result)
+    }
 
 
 def objective_label(result: BenchmarkResult) -> str:
@@ -57,9 +79,13 @@ def overlapping(curves: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]], to
 def legend_labels(
     result: BenchmarkResult, curves: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]
 ) -> dict[str, str]:
-    """Policy -> its legend entry: the short label, and ``(overlaps other)`` when its curve hides another's."""
-    labels, hidden = result.labels, overlapping(curves)
-    return {n: f"{labels[n]} (overlaps {labels[hidden[n]]})" if n in hidden else labels[n] for n in curves}
+    """Policy -> its legend entry: the short label, with ``(overlaps other)`` or ``(non-causal upper reference)``.
+
+    ``(overlaps other)`` when its curve hides another's; ``(non-causal upper reference)`` for an upper reference.
+    """
+    labels, hidden, upper = result.labels, overlapping(curves), set(upper_references(result))
+    entries = {n: f"{labels[n]} (overlaps {labels[hidden[n]]})" if n in hidden else labels[n] for n in curves}
+    return {n: f"{entry} ({MARK})" if n in upper else entry for n, entry in entries.items()}
 
 
 def save_figures(result: BenchmarkResult, out: Path) -> list[Path]:
@@ -82,35 +108,48 @@ def save_figures(result: BenchmarkResult, out: Path) -> list[Path]:
     shown = episodes_label(result)
     curves = mean_curves(result)
     legend = legend_labels(result, curves)
+    upper = upper_references(result)
     fig, ax = plt.subplots(figsize=(8.5, 4.2))
     n = len(curves)
     for i, (name, (mean, low, high)) in enumerate(curves.items()):
         steps = np.arange(1, len(mean) + 1)
         every = max(1, len(steps) // 8)
-        (line,) = ax.plot(
-            steps,
-            mean,
-            label=legend[name],
-            linestyle=LINESTYLES[i % len(LINESTYLES)],
-            marker=MARKERS[i % len(MARKERS)],
-            markersize=5,
-            markevery=(i * every // max(n, 1), every),
+        style: dict[str, Any] = (
+            {"color": UPPER_COLOUR, "linestyle": (0, (1, 1)), "marker": UPPER_MARKER, "markersize": 8}
+            if name in upper
+            else {"linestyle": LINESTYLES[i % len(LINESTYLES)], "marker": MARKERS[i % len(MARKERS)], "markersize": 5}
         )
+        (line,) = ax.plot(steps, mean, label=legend[name], markevery=(i * every // max(n, 1), every), **style)
         ax.fill_between(steps, low, high, color=line.get_color(), alpha=0.12, linewidth=0)
         for edge in (low, high):  # the band's edges, so that overlapping bands stay apart
             ax.plot(steps, edge, color=line.get_color(), linewidth=0.6, alpha=0.7)
     ax.set(xlabel=result.step_unit, ylabel=f"cumulative {what}")
     ax.set_title(f"{result.env_id}: mean cumulative objective, {shown} (95 % band)")
-    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, frameon=False, title="best first (IQM)")
+    ax.legend(
+        loc="upper left",
+        bbox_to_anchor=(1.01, 1.0),
+        borderaxespad=0.0,
+        frameon=False,
+        title=f"best first (IQM){'; upper reference last' if upper else ''}",
+    )
     fig.tight_layout()
     fig.savefig(paths[0], dpi=120)
     plt.close(fig)
 
     fig, ax = plt.subplots(figsize=(max(7.0, 1.3 * n), 4.2))
     labels = result.labels
-    ranked = result.ranking()
-    ax.boxplot([result.objective_values(name) for name in ranked], tick_labels=[labels[name] for name in ranked])
-    ax.set(xlabel="policy (best first by IQM)", ylabel=f"episode {what}")
+    ranked = plotted_order(result)
+    ticks = [f"{labels[name]}\n({MARK})" if name in upper else labels[name] for name in ranked]
+    boxes = ax.boxplot([result.objective_values(name) for name in ranked], tick_labels=ticks, patch_artist=True)
+    for name, box, median in zip(ranked, boxes["boxes"], boxes["medians"], strict=True):
+        box.set_facecolor("0.85" if name in upper else "white")
+        if name in upper:
+            box.set_hatch("//")
+            median.set_color(UPPER_COLOUR)
+    if upper:
+        ax.axvline(len(ranked) - len(upper) + 0.5, color="0.5", linestyle=":", linewidth=1)
+    xlabel = "policy (best first by IQM" + ("; the non-causal upper reference last, not ranked)" if upper else ")")
+    ax.set(xlabel=xlabel, ylabel=f"episode {what}")
     ax.set_title(f"{result.env_id}: episode objective per policy, {shown}")
     if any(len(label) > 14 for label in labels.values()):
         ax.tick_params(axis="x", labelrotation=20)

@@ -2,8 +2,10 @@
 
 One panel per env: each policy's IQM of the per-episode objective (a marker, always drawn, so that a
 zero-width interval stays visible) and its 95 % two-level bootstrap interval (a bar, when it has a width),
-from the section's ``summary.csv``; RL agents stand out from the baselines; every panel's axis spans every
-point and bound.
+from the section's ``summary.csv``; RL agents stand out from the baselines (red diamonds), and a non-causal
+upper reference (``hindsight``, ``oracle``: :func:`~gym4real.core.registry.non_causal`) from both (a black
+star below a dotted rule, labelled ``(non-causal upper reference)``); every panel's axis spans every point
+and bound.
 """
 
 from __future__ import annotations
@@ -18,6 +20,29 @@ import pandas as pd
 FILE = "summary.png"
 #: The fraction of a panel's span left free on either side.
 PAD = 0.06
+#: How each kind of row is drawn: colour, marker, marker size, interval width.
+STYLES = {
+    "agent": ("C3", "D", 7, 2.2),
+    "baseline": ("0.35", "o", 5, 1.6),
+    "upper": ("black", "*", 10, 1.6),
+}
+
+
+def kinds(env_id: str, summary: pd.DataFrame) -> list[str]:
+    """Each row's kind as the figure draws it: ``agent``, ``baseline`` or ``upper`` (a non-causal reference)."""
+    from gym4real.core.registry import non_causal
+
+    upper = set(non_causal(env_id))
+    return [
+        "upper" if policy in upper else "agent" if kind == "agent" else "baseline"
+        for policy, kind in zip(summary["policy"], summary["kind"], strict=True)
+    ]
+
+
+def ordered(env_id: str, summary: pd.DataFrame) -> pd.DataFrame:
+    """The panel's rows top to bottom: agents and baselines as given, the upper references last."""
+    upper = np.array(kinds(env_id, summary)) == "upper"
+    return pd.concat([summary[~upper], summary[upper]], ignore_index=True)
 
 
 def limits(summary: pd.DataFrame) -> tuple[float, float]:
@@ -37,6 +62,7 @@ def figure(panels: list[tuple[str, str, pd.DataFrame]]) -> Any:
     from matplotlib.ticker import FuncFormatter
 
     from gym4real.bench.numbers import human
+    from gym4real.core.registry import MARK
 
     heights = [0.5 + 0.32 * len(s) for _, _, s in panels]
     fig, axes = plt.subplots(
@@ -47,23 +73,29 @@ def figure(panels: list[tuple[str, str, pd.DataFrame]]) -> Any:
         gridspec_kw={"height_ratios": heights},
         layout="constrained",
     )
-    for ax, (env_id, objective, summary) in zip(axes[:, 0], panels, strict=True):
-        names = summary["policy"].tolist()
+    suffix = {"agent": " (agent)", "baseline": "", "upper": f" ({MARK})"}
+    for ax, (env_id, objective, given) in zip(axes[:, 0], panels, strict=True):
+        summary = ordered(env_id, given)
+        names, row_kinds = summary["policy"].tolist(), kinds(env_id, summary)
         y = np.arange(len(names))[::-1]
-        for row, pos in zip(summary.to_dict("records"), y, strict=True):
-            agent = row["kind"] == "agent"
-            colour = "C3" if agent else "0.35"
+        for row, pos, kind in zip(summary.to_dict("records"), y, row_kinds, strict=True):
+            colour, marker, size, width = STYLES[kind]
             if row["high"] > row["low"]:
-                ax.hlines(pos, row["low"], row["high"], color=colour, lw=2.2 if agent else 1.6)
-            ax.plot(row["iqm"], pos, "D" if agent else "o", color=colour, ms=7 if agent else 5, zorder=3)
-        labels = [f"{n} (agent)" if k == "agent" else n for n, k in zip(names, summary["kind"], strict=True)]
-        ax.set_yticks(y, labels)
+                ax.hlines(pos, row["low"], row["high"], color=colour, lw=width)
+            ax.plot(row["iqm"], pos, marker, color=colour, ms=size, zorder=3, label=suffix[kind].strip(" ()") or None)
+        if "upper" in row_kinds:
+            ax.axhline(row_kinds.count("upper") - 0.5, color="0.6", linestyle=":", lw=1)
+        ax.set_yticks(y, [n + suffix[k] for n, k in zip(names, row_kinds, strict=True)])
         ax.set_ylim(-0.7, len(names) - 0.3)
         ax.set_xlim(*limits(summary))
         ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: human(v)))
         ax.grid(axis="x", alpha=0.3)
         ax.set_title(f"{env_id}: IQM of the objective ({objective}), 95 % interval; higher is better", fontsize=9)
-    fig.suptitle("Every agent (red diamonds) and baseline on each env's test protocol", fontsize=10)
+    fig.suptitle(
+        "Every agent (red diamonds) and baseline on each env's test protocol; "
+        "below the dotted rule, the non-causal upper reference (black star), not ranked",
+        fontsize=10,
+    )
     return fig
 
 
