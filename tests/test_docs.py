@@ -381,3 +381,48 @@ def test_env_page_figures_are_captioned_with_policies_episodes_and_objective(
         (tmp_path / "docs" / "envs" / "figures" / folder.name / png.name).is_file() for png in folder.glob("*.png")
     )
     assert gen_pages.best_baseline("gym4real/dam-v0", tmp_path / "results") == "max"  # by the objective's IQM
+
+
+def test_architecture_figure_holds_each_list_in_its_box_and_no_arrow_crosses_a_text(
+    load_script: Callable[[Path], ModuleType],
+) -> None:
+    """Issue 45: the module lists overflowed their boxes and arrows crossed them. Measured as drawn (Agg)."""
+    pytest.importorskip("grimp", reason="the docs session installs import-linter")
+    from matplotlib.patches import FancyArrowPatch, FancyBboxPatch
+    from matplotlib.path import Path as MplPath
+
+    gen_pages = load_script(ROOT / "docs" / "gen_pages.py")
+    layers, members, edges = gen_pages.import_groups()
+    assert {"gym4real.cli", "gym4real.core"} <= set(layers) and edges[("domains", "gym4real.core")] > 0
+    fig = gen_pages.draw_architecture(layers, members, edges)
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    (ax,) = fig.axes
+    boxes = [p.get_window_extent(renderer) for p in ax.patches if isinstance(p, FancyBboxPatch)]
+    arrows = [  # each arrow's line and head as open polylines (a closing vertex would count as a point at 0, 0)
+        [MplPath(line) for line in p.get_transform().transform_path(p.get_path()).to_polygons(closed_only=False)]
+        for p in ax.patches
+        if isinstance(p, FancyArrowPatch)
+    ]
+    assert len(boxes) == len(members) and len(arrows) == len(edges)
+    counts = [t for t in ax.texts if t.get_bbox_patch() is not None]
+    assert sorted(int(t.get_text()) for t in counts) == sorted(edges.values())
+    listed = " ".join(t.get_text() for t in ax.texts)
+    for group, modules in members.items():  # every public module of a layer, each package beside, is named
+        depth = 2 if group in layers else 1
+        names = {m.split(".")[depth] for m in modules if m.count(".") >= depth} - {""}
+        names = {n for n in names if not n.startswith("_")}
+        assert names
+        assert all(re.search(rf"\b{name}\b", listed) for name in names)
+    for text in ax.texts:
+        extent = text.get_window_extent(renderer)
+        if text in counts:  # a count covers its own arrow only
+            assert sum(any(line.intersects_bbox(extent, filled=False) for line in a) for a in arrows) == 1, (
+                text.get_text()
+            )
+            continue
+        inside = [
+            b for b in boxes if b.x0 <= extent.x0 and extent.x1 <= b.x1 and b.y0 <= extent.y0 and extent.y1 <= b.y1
+        ]
+        assert inside or not any(b.overlaps(extent) for b in boxes), f"{text.get_text()!r} overflows its box"
+        assert not any(line.intersects_bbox(extent, filled=False) for a in arrows for line in a), text.get_text()
