@@ -3,10 +3,11 @@
 Each page opens, as Farama's environment pages do, with an episode of the env (an animated GIF, with
 ``--gifs``) beside a table of its spaces, reward terms and flags; then its description, presets,
 datasets, baselines, protocol, docstring and the JSON schema of its configuration; when ``--figures DIR``
-names a folder of ``gym4real bench`` results (``DIR/<env>/...png``, run on the test protocol), the benchmark
-figures, each captioned with what it shows (the policies, the episodes, the objective) from the run's
-``results.json``; and the env's verdicts on the paper's claims from the committed results page
-(``docs/results/index.md``).
+names a folder of ``gym4real bench`` results (``DIR/<env>/...png``, run on the test protocol: the committed
+``docs/bench/``, which ``nox -s docs -- --refresh`` re-runs), the benchmark figures, each captioned with what
+it shows (the policies, the episodes, the objective) from the run's ``results.json``; and the env's verdicts
+on the paper's claims from the committed results page (``docs/results/index.md``). ``--pack-figures`` first
+rewrites the two common figures with a palette of 128 colours (a quarter of their size, for committing them).
 
 The GIF shows the env's best rule-based baseline: the protocol's baseline (other than ``random``) with
 the best objective IQM (the score) in ``--figures`` results, else its first. It is recorded here (``gym4real
@@ -18,7 +19,7 @@ the gallery of the envs (their GIFs linking to their pages), the verdict table o
 the citations (the suite's version read from gym4real-core's ``pyproject.toml``). The Architecture page's
 figure, the layers of gym4real-core drawn from the import graph, goes into the ignored ``docs/diagrams/``.
 
-    python docs/gen_pages.py [--figures results/docs] [--gifs]
+    python docs/gen_pages.py [--figures docs/bench [--pack-figures]] [--gifs]
 """
 
 from __future__ import annotations
@@ -290,6 +291,24 @@ def _figures(title: str, folder: Path, intro: str = "") -> list[str]:
             "",
         ]
     return lines
+
+
+def pack_figures(folder: Path, colours: int = 128) -> list[Path]:
+    """Rewrite the two common figures of each bench results folder under ``folder`` with a palette of
+    ``colours`` colours.
+
+    ``gym4real bench``'s curves and boxes are drawn in a few flat colours and their blends: a palette keeps
+    them as drawn to the eye at about a quarter of the bytes, which is what the committed ``docs/bench/``
+    holds. A domain's own figures (a heatmap's continuous colour scale) are left as drawn.
+    """
+    from PIL import Image
+
+    packed = sorted(png for png in folder.glob("*/*.png") if png.name in FIGURE_WHAT)
+    for png in packed:
+        with Image.open(png) as image:
+            paletted = image.convert("RGB").quantize(colors=colours, method=Image.Quantize.MEDIANCUT)
+        paletted.save(png, optimize=True)
+    return packed
 
 
 def verdict_table(env_id: str | None = None) -> list[str]:
@@ -711,9 +730,16 @@ def architecture_figure(path: Path) -> Path:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--figures", type=Path, help="folder of gym4real bench results, one subfolder per env")
+    parser.add_argument(
+        "--pack-figures", action="store_true", help="rewrite the common figures of --figures with a palette"
+    )
     parser.add_argument("--gifs", action="store_true", help="record an episode GIF of each env's best baseline")
     parser.add_argument("--gif-steps", type=int, default=360, help="steps of the recorded episode at most")
     args = parser.parse_args()
+    if args.pack_figures:
+        if args.figures is None:
+            parser.error("--pack-figures rewrites the PNGs of --figures DIR: name the folder")
+        print(f"packed {len(pack_figures(args.figures))} figures of {args.figures}")
     out, snippets = DOCS / "envs", DOCS / "snippets"
     for folder in (out, snippets):
         shutil.rmtree(folder, ignore_errors=True)
