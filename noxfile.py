@@ -4,6 +4,7 @@
 * ``tests-<dist>``: one distribution with core only, in its own venv, its own suite.
 * ``wheels``: build every wheel, install them into a fresh venv, smoke-test each domain.
 * ``minimal``: core alone lists no env and names the pip install of a missing domain.
+* ``bench -- <env id>``: the main job; ``docs`` (``-- --refresh``): the site from the committed results.
 * ``lint`` (ruff, import-linter's layers) and ``typecheck`` (mypy).
 * ``release -- <dist>`` and ``compat -- <dist>``: release checks of one distribution (RELEASING.md).
 """

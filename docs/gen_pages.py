@@ -31,6 +31,7 @@ import json
 import re
 import shutil
 import tomllib
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -580,7 +581,7 @@ def arch_boxes(layers: list[str], members: dict[str, list[str]]) -> dict[str, Ar
     return boxes
 
 
-def _spread(ends: list[tuple[Any, float]], low: float, height: float) -> dict[Any, float]:
+def _spread(ends: Sequence[tuple[Any, float]], low: float, height: float) -> dict[Any, float]:
     """Heights for the ends of arrows on one edge, spread over ``[low, low + height]`` in their keys' order."""
     ordered = sorted(ends, key=lambda item: item[1])
     return {end: low + height * (i + 1) / (len(ordered) + 1) for i, (end, _) in enumerate(ordered)}
@@ -704,10 +705,13 @@ def draw_architecture(layers: list[str], members: dict[str, list[str]], edges: d
         ax.text(x, y, box.title, size=ARCH_TITLE_PT, weight="bold", va="top")
         if box.lines:
             ax.text(x, y - ARCH_TITLE_LINE, "\n".join(box.lines), size=ARCH_TEXT_PT, va="top", linespacing=1.4)
-    style = {"arrowstyle": "-|>", "mutation_scale": 9, "color": "#4a5a70", "lw": 0.9, "shrinkA": 0, "shrinkB": 0}
     white = {"facecolor": "white", "edgecolor": "none", "pad": 0.5}
     for e, polyline in arrows.items():
-        ax.add_patch(patches.FancyArrowPatch(path=MplPath(polyline), **style))
+        arrow = patches.FancyArrowPatch(
+            path=MplPath(polyline), arrowstyle="-|>", mutation_scale=9, shrinkA=0, shrinkB=0
+        )
+        arrow.set(color="#4a5a70", linewidth=0.9)
+        ax.add_patch(arrow)
         ax.text(*counts[e], str(edges[e]), size=ARCH_COUNT_PT, ha="center", va="center", bbox=white)
     return fig
 
