@@ -169,12 +169,14 @@ def bench(session: nox.Session) -> None:
 #: The env pages' `gym4real bench` results (results.json, summary.csv, episodes.csv, figures), committed:
 #: `nox -s docs` builds the pages from them; `nox -s docs -- --refresh` re-runs the benchmarks into it first.
 BENCH = ROOT / "docs" / "bench"
-#: What the docs session does and how long it takes (measured on a shared 2-core machine), said at its start.
+#: What the docs session does and how long it takes, said at its start. Measured on a 2-core machine: the build
+#: took 92 CPU-seconds (the tutorials about 45, the GIFs 16) and a new venv's installs about 110 more.
 DOCS_PLAN = (
     "the site from the committed results: the env pages' benchmark figures from docs/bench/ (no benchmark "
     "runs), an episode GIF per env recorded here, `mkdocs build --strict` executing the tutorials of "
-    "examples/tutorials/, then every page opened in Chromium; about {build} on 2 cores, plus about {install} "
-    "for the installs of a new venv (torch's CPU build, every package, the site's plugins)"
+    "examples/tutorials/, then every page opened in Chromium. About 1.5 CPU-minutes, plus about 2 for the "
+    "installs of a new venv (torch's CPU build, every package, the site's plugins): 3 to 4 minutes on an idle "
+    "2-core machine, several times that on a busy one"
 )
 #: The warnings of `mkdocs build`: deprecations shown once per module, as mkdocs shows them, but the one of
 #: `mkdocs.utils.warning_filter` (a no-op since MkDocs 1.2), which mkdocs-gallery's compatibility module still
@@ -208,8 +210,7 @@ def docs(session: nox.Session) -> None:
     chromium = site_check.find_chromium(None)
     if chromium is None:
         session.error(site_check.INSTALL)
-    plan = DOCS_PLAN.format(build="4 minutes", install="2 minutes")
-    session.log(f"docs: {DOCS_REFRESH if refresh else ''}{plan}")
+    session.log(f"docs: {DOCS_REFRESH if refresh else ''}{DOCS_PLAN}")
     session.install(TORCH)
     session.install(*(_editable(d) for d in PACKAGES), *DOCS, "playwright>=1.40")
     env = ENV | _data_env(session)
