@@ -182,7 +182,12 @@ DOCS_PLAN = (
 #: `mkdocs.utils.warning_filter` (a no-op since MkDocs 1.2), which mkdocs-gallery's compatibility module still
 #: imports in its latest release, 0.10.4 (its issue 89): it printed a stack trace on every build.
 MKDOCS_WARNINGS = "module::DeprecationWarning,ignore:warning_filter doesn't do anything:DeprecationWarning"
-DOCS_REFRESH = "first `gym4real bench` of every env into docs/bench/ (--refresh): about 45 minutes on 2 cores; then "
+#: Measured: about 45 minutes on an idle 2-core machine; here, busy, robofeeder-planning-v0's alone took 78 minutes
+#: (its own figure runs 2 policies x 5 bin sizes x 250 episodes).
+DOCS_REFRESH = (
+    "first `gym4real bench` of every env into docs/bench/ (--refresh): about 45 minutes on 2 cores, hours on a "
+    "busy machine; then "
+)
 
 
 @nox.session

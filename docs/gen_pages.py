@@ -300,15 +300,19 @@ def pack_figures(folder: Path, colours: int = 128) -> list[Path]:
 
     ``gym4real bench``'s curves and boxes are drawn in a few flat colours and their blends: a palette keeps
     them as drawn to the eye at about a quarter of the bytes, which is what the committed ``docs/bench/``
-    holds. A domain's own figures (a heatmap's continuous colour scale) are left as drawn.
+    holds. A domain's own figures (a heatmap's continuous colour scale) are left as drawn, and so are figures
+    packed already. Returns the figures it packed.
     """
     from PIL import Image
 
-    packed = sorted(png for png in folder.glob("*/*.png") if png.name in FIGURE_WHAT)
-    for png in packed:
+    packed = []
+    for png in sorted(png for png in folder.glob("*/*.png") if png.name in FIGURE_WHAT):
         with Image.open(png) as image:
+            if image.mode == "P":  # packed already: left byte for byte
+                continue
             paletted = image.convert("RGB").quantize(colors=colours, method=Image.Quantize.MEDIANCUT)
         paletted.save(png, optimize=True)
+        packed.append(png)
     return packed
 
 

@@ -586,6 +586,8 @@ def test_packing_the_bench_figures_keeps_them_as_drawn_at_a_fraction_of_the_byte
         with Image.open(png) as after, Image.open(io.BytesIO(drawn[png.name])) as before:
             difference = np.abs(np.asarray(after.convert("RGB"), int) - np.asarray(before.convert("RGB"), int))
         assert difference.mean() < 1.0 and np.percentile(difference, 99.9) < 24, png.name  # of 0-255 per channel
+    again = {p.name: p.read_bytes() for p in folder.glob("*.png")}
+    assert gen_pages.pack_figures(tmp_path) == [] and {p.name: p.read_bytes() for p in folder.glob("*.png")} == again
 
 
 def test_the_docs_session_silences_mkdocs_gallerys_deprecated_import_and_no_other_deprecation(
