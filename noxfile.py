@@ -5,11 +5,12 @@
 * ``wheels``: build every wheel, install them into a fresh venv (core without extras: the thin install a
   domain's user gets), smoke-test each domain.
 * ``minimal``: core alone lists no env and names the pip install of a missing domain.
+* ``bench -- <env id>``: the main job; ``docs`` (``-- --refresh``): the site from the committed results.
+* ``lint`` (ruff, import-linter's layers) and ``typecheck`` (mypy).
+* ``release -- <dist>`` and ``compat -- <dist>``: release checks of one distribution (RELEASING.md).
 
 Core's ``bench`` extra (matplotlib, scipy, tqdm: measurement, training, publishing) is installed wherever
 something measures: ``tests``, ``tests-<dist>`` (each test group names ``gym4real-core[bench]``), ``bench``, ``docs``.
-* ``lint`` (ruff, import-linter's layers) and ``typecheck`` (mypy).
-* ``release -- <dist>`` and ``compat -- <dist>``: release checks of one distribution (RELEASING.md).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import hashlib
 import importlib.util
 import json
 import os
+import shutil
 from pathlib import Path
 
 import nox
@@ -169,20 +171,48 @@ def bench(session: nox.Session) -> None:
     )
 
 
+#: The env pages' `gym4real bench` results (results.json, summary.csv, episodes.csv, figures), committed:
+#: `nox -s docs` builds the pages from them; `nox -s docs -- --refresh` re-runs the benchmarks into it first.
+BENCH = ROOT / "docs" / "bench"
+#: What the docs session does and how long it takes, said at its start. Measured on a 2-core machine: the build
+#: took 92 CPU-seconds (the tutorials about 45, the GIFs 16) and a new venv's installs about 110 more.
+DOCS_PLAN = (
+    "the site from the committed results: the env pages' benchmark figures from docs/bench/ (no benchmark "
+    "runs), an episode GIF per env recorded here, `mkdocs build --strict` executing the tutorials of "
+    "examples/tutorials/, then every page opened in Chromium. About 1.5 CPU-minutes, plus about 2 for the "
+    "installs of a new venv (torch's CPU build, every package, the site's plugins): 3 to 4 minutes on an idle "
+    "2-core machine, several times that on a busy one"
+)
+#: The warnings of `mkdocs build`: deprecations shown once per module, as mkdocs shows them, but the one of
+#: `mkdocs.utils.warning_filter` (a no-op since MkDocs 1.2), which mkdocs-gallery's compatibility module still
+#: imports in its latest release, 0.10.4 (its issue 89): it printed a stack trace on every build.
+MKDOCS_WARNINGS = "module::DeprecationWarning,ignore:warning_filter doesn't do anything:DeprecationWarning"
+#: Measured: about 45 minutes on an idle 2-core machine; here, busy, robofeeder-planning-v0's alone took 78 minutes
+#: (its own figure runs 2 policies x 5 bin sizes x 250 episodes).
+DOCS_REFRESH = (
+    "first `gym4real bench` of every env into docs/bench/ (--refresh): about 45 minutes on 2 cores, hours on a "
+    "busy machine; then "
+)
+
+
 @nox.session
 def docs(session: nox.Session) -> None:
-    """The docs site, checked in a real browser.
+    """The docs site from the committed results, checked in a real browser (`-- --refresh`: re-benchmark first).
 
     One generated page per env with an episode GIF of its best rule-based baseline (recorded here into the
-    ignored docs/envs/) and its `gym4real bench` figures (on its test protocol, captioned), plus the figures of
-    `gym4real reproduce` found in results/, and the home page's gallery, verdicts and citation (docs/snippets/);
-    `mkdocs build --strict`, which executes the tutorials of examples/tutorials/ (a failing one fails it)
-    and builds the API reference; then every page opened in headless Chromium (the system's: `apt-get
-    install -y chromium`, or GYM4REAL_CHROMIUM=<binary>), a screenshot of each saved in
+    ignored docs/envs/) and its `gym4real bench` figures on its test protocol, captioned, from the committed
+    docs/bench/ (no benchmark runs: `-- --refresh` re-runs `gym4real bench` of every env into it first, about
+    45 minutes on 2 cores, and packs its figures; commit the result), plus the home page's gallery, verdicts and
+    citation (docs/snippets/); `mkdocs build --strict`, which executes the tutorials of examples/tutorials/ (a
+    failing one fails it) and builds the API reference; then every page opened in headless Chromium (the
+    system's: `apt-get install -y chromium`, or GYM4REAL_CHROMIUM=<binary>), a screenshot of each saved in
     results/docs/screenshots/ (home.png and env.png: the whole home page and first env page), failing on a
     console error, a broken image, an internal link that does not resolve or a page that does not render.
     The tutorials train with torch: see TORCH above for its CPU build.
     """
+    refresh = session.posargs == ["--refresh"]
+    if session.posargs and not refresh:
+        session.error(f"unknown arguments {session.posargs}: the only option is `-- --refresh` (re-benchmark)")
     spec = importlib.util.spec_from_file_location("check_site", ROOT / "docs" / "check_site.py")
     assert spec is not None and spec.loader is not None
     site_check = importlib.util.module_from_spec(spec)
@@ -190,20 +220,25 @@ def docs(session: nox.Session) -> None:
     chromium = site_check.find_chromium(None)
     if chromium is None:
         session.error(site_check.INSTALL)
+    session.log(f"docs: {DOCS_REFRESH if refresh else ''}{DOCS_PLAN}")
     session.install(TORCH)
     session.install(*(_editable(d) for d in PACKAGES), *DOCS, "playwright>=1.40")
-    figures = ROOT / "results" / "docs"
     env = ENV | _data_env(session)
-    ids = session.run(
-        "python", "-c", "import gym4real; print(*gym4real.list_envs(multi_objective=False))", silent=True, env=env
-    )
-    for env_id in str(ids).split():
-        out = figures / env_id.replace("/", "_")
-        session.run("gym4real", "bench", env_id, "--out", str(out), "--quiet", env=env)
-    session.run("python", "docs/gen_pages.py", "--figures", str(figures), "--gifs", env=env)
-    quiet = {"NO_MKDOCS_2_WARNING": "1", "DISABLE_MKDOCS_2_WARNING": "true"}  # the theme's and a plugin's notice
+    pages = ["python", "docs/gen_pages.py", "--figures", str(BENCH), "--gifs"]
+    if refresh:
+        ids = session.run(
+            "python", "-c", "import gym4real; print(*gym4real.list_envs(multi_objective=False))", silent=True, env=env
+        )
+        for env_id in str(ids).split():
+            out = BENCH / env_id.replace("/", "_")
+            shutil.rmtree(out, ignore_errors=True)
+            session.run("gym4real", "bench", env_id, "--out", str(out), "--quiet", env=env)
+        pages.append("--pack-figures")
+    session.run(*pages, env=env)
+    # the notices of the theme and of a plugin about MkDocs 2; the warnings above
+    quiet = {"NO_MKDOCS_2_WARNING": "1", "DISABLE_MKDOCS_2_WARNING": "true", "PYTHONWARNINGS": MKDOCS_WARNINGS}
     session.run("mkdocs", "build", "--strict", env=env | quiet)
-    shots = figures / "screenshots"
+    shots = ROOT / "results" / "docs" / "screenshots"
     session.run("python", "docs/check_site.py", "site", "--screenshots", str(shots), "--chromium", chromium, env=env)
 
 

@@ -3,10 +3,11 @@
 Each page opens, as Farama's environment pages do, with an episode of the env (an animated GIF, with
 ``--gifs``) beside a table of its spaces, reward terms and flags; then its description, presets,
 datasets, baselines, protocol, docstring and the JSON schema of its configuration; when ``--figures DIR``
-names a folder of ``gym4real bench`` results (``DIR/<env>/...png``, run on the test protocol), the benchmark
-figures, each captioned with what it shows (the policies, the episodes, the objective) from the run's
-``results.json``; and the env's verdicts on the paper's claims from the committed results page
-(``docs/results/index.md``).
+names a folder of ``gym4real bench`` results (``DIR/<env>/...png``, run on the test protocol: the committed
+``docs/bench/``, which ``nox -s docs -- --refresh`` re-runs), the benchmark figures, each captioned with what
+it shows (the policies, the episodes, the objective) from the run's ``results.json``; and the env's verdicts
+on the paper's claims from the committed results page (``docs/results/index.md``). ``--pack-figures`` first
+rewrites the two common figures with a palette of 128 colours (a quarter of their size, for committing them).
 
 The GIF shows the env's best rule-based baseline: the protocol's baseline (other than ``random``) with
 the best objective IQM (the score) in ``--figures`` results, else its first. It is recorded here (``gym4real
@@ -18,19 +19,21 @@ the gallery of the envs (their GIFs linking to their pages), the verdict table o
 the citations (the suite's version read from gym4real-core's ``pyproject.toml``). The Architecture page's
 figure, the layers of gym4real-core drawn from the import graph, goes into the ignored ``docs/diagrams/``.
 
-    python docs/gen_pages.py [--figures results/docs] [--gifs]
+    python docs/gen_pages.py [--figures docs/bench [--pack-figures]] [--gifs]
 """
 
 from __future__ import annotations
 
 import argparse
 import inspect
+import itertools
 import json
 import re
 import shutil
 import tomllib
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import gymnasium as gym
 import pandas as pd
@@ -296,6 +299,28 @@ def _figures(title: str, folder: Path, intro: str = "") -> list[str]:
     return lines
 
 
+def pack_figures(folder: Path, colours: int = 128) -> list[Path]:
+    """Rewrite the two common figures of each bench results folder under ``folder`` with a palette of
+    ``colours`` colours.
+
+    ``gym4real bench``'s curves and boxes are drawn in a few flat colours and their blends: a palette keeps
+    them as drawn to the eye at about a quarter of the bytes, which is what the committed ``docs/bench/``
+    holds. A domain's own figures (a heatmap's continuous colour scale) are left as drawn, and so are figures
+    packed already. Returns the figures it packed.
+    """
+    from PIL import Image
+
+    packed = []
+    for png in sorted(png for png in folder.glob("*/*.png") if png.name in FIGURE_WHAT):
+        with Image.open(png) as image:
+            if image.mode == "P":  # packed already: left byte for byte
+                continue
+            paletted = image.convert("RGB").quantize(colors=colours, method=Image.Quantize.MEDIANCUT)
+        paletted.save(png, optimize=True)
+        packed.append(png)
+    return packed
+
+
 def verdict_table(env_id: str | None = None) -> list[str]:
     """The verdict table of the results page (``docs/results/index.md``): its head and rows (one env's with
     ``env_id``); empty when the page has no row for it."""
@@ -454,22 +479,17 @@ def _group_of(module: str, layers: list[str], domains: set[str]) -> str:
     return "domains" if module.split(".")[1] in domains else "beside"
 
 
-def architecture_figure(path: Path) -> Path:
-    """Draw the layers of gym4real-core from the import graph of the installed code (grimp, as lint-imports).
+def import_groups() -> tuple[list[str], dict[str, list[str]], dict[tuple[str, str], int]]:
+    """The layers of gym4real-core, the modules of each group and the imports between groups.
 
-    One box per layer (top: the command; bottom: the plugin host) listing its modules, the domains' plugins
-    and the packages beside the layers (wrappers, integrations, offline datasets); each arrow is labelled with
-    the number of imports from one group into another (every import that can run, deferred ones included).
+    Read from the import graph of the installed code (grimp, as lint-imports reads it). The groups are the
+    layers (top first), ``domains`` (the domains' plugins) and ``beside`` (wrappers, integrations, offline
+    datasets); an edge ``(a, b): n`` counts the imports from modules of ``a`` into modules of ``b`` (every import
+    that can run, deferred ones included).
     """
     import importlib.util
-    import textwrap
 
     import grimp
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib import patches
 
     spec = importlib.util.spec_from_file_location("lint_imports", DOCS.parent / "scripts" / "lint_imports.py")
     assert spec is not None and spec.loader is not None
@@ -489,44 +509,233 @@ def architecture_figure(path: Path) -> Path:
             if imported in group_of and group_of[imported] != group:
                 pair = (group, group_of[imported])
                 edges[pair] = edges.get(pair, 0) + 1
-    matplotlib.rcParams["svg.fonttype"] = "none"  # the names stay text in the SVG (searchable, selectable)
-    fig, ax = plt.subplots(figsize=(12, 8))
-    ax.set_axis_off()
-    box_w, box_h, gap = 5.6, 1.0, 0.5
-    ax.set_xlim(-2.2, 13.4)
-    ax.set_ylim(-0.3, len(layers) * (box_h + gap))
-    level = {layer: (len(layers) - 1 - i) * (box_h + gap) for i, layer in enumerate(layers)}
-    place = {layer: (0.0, y) for layer, y in level.items()}
-    place["domains"] = (7.6, level[layers[-1]])  # beside the host, whose plugin API they use
-    place["beside"] = (7.6, level[layers[-3]])
+    return layers, members, edges
+
+
+#: The Architecture figure's type sizes (points) and lengths (inches; one unit of its axes is one inch).
+ARCH_TITLE_PT, ARCH_TEXT_PT, ARCH_COUNT_PT = 10.0, 8.0, 8.0
+ARCH_STACK_W, ARCH_SIDE_W, ARCH_GAP_X, ARCH_GAP_Y, ARCH_PAD = 5.4, 3.2, 2.2, 0.5, 0.1
+ARCH_LINE, ARCH_TITLE_LINE = ARCH_TEXT_PT * 1.4 / 72, ARCH_TITLE_PT * 1.6 / 72
+ARCH_LANE = 0.28  # the spacing (inches) of the vertical lanes left of the stack that carry the arrows between layers
+
+Edge = tuple[str, str]
+Point = tuple[float, float]
+
+
+class ArchBox(NamedTuple):
+    """A box of the Architecture figure: its lower-left corner, size (inches), title and lines of modules."""
+
+    x: float
+    y: float
+    w: float
+    h: float
+    title: str
+    lines: list[str]
+
+
+def _text_width(text: str, size: float, weight: str = "normal") -> float:
+    """The width in inches of one line of text at ``size`` points, as matplotlib's Agg renderer draws it."""
+    from matplotlib.backends.backend_agg import RendererAgg
+    from matplotlib.font_manager import FontProperties
+
+    width, _, _ = RendererAgg(1, 1, 72).get_text_width_height_descent(
+        text, FontProperties(size=size, weight=weight), ismath=False
+    )
+    return float(width) / 72
+
+
+def _wrapped(names: list[str], width: float, size: float) -> list[str]:
+    """``names`` joined by commas into lines no wider than ``width`` inches, a name never split; 5 % to spare
+    for a browser's rendering of the SVG's text."""
+    lines: list[str] = []
+    line = ""
+    for name in names:
+        candidate = f"{line}, {name}" if line else name
+        if line and _text_width(candidate + ",", size) > 0.95 * width:
+            lines.append(line + ",")
+            line = name
+        else:
+            line = candidate
+    return [*lines, line] if line else lines
+
+
+def arch_boxes(layers: list[str], members: dict[str, list[str]]) -> dict[str, ArchBox]:
+    """The boxes: the layers stacked top first from y = 0, the domains' plugins right of the plugin host and
+    the packages beside the layers right of measurement, each tall enough for its wrapped list of modules."""
     titles = {"domains": "domains (plugins)", "beside": "beside the layers"}
-    for group, (x, y) in place.items():
+    sized: dict[str, tuple[float, str, list[str]]] = {}
+    for group, modules in members.items():
         depth = 2 if group in ("domains", "beside") else 3
-        names = sorted({".".join(m.split(".")[:depth]) for m in members[group]} - {group})
-        short = [n.removeprefix(group + ".").removeprefix("gym4real.") for n in names]
+        names = sorted({".".join(m.split(".")[:depth]) for m in modules} - {group})
+        short = [n.removeprefix(group + ".").removeprefix("gym4real.") for n in names if "._" not in n]
+        width = ARCH_STACK_W if group in layers else ARCH_SIDE_W
+        title = f"{titles.get(group, group)} ({len(modules)} modules)"
+        sized[group] = (width, title, _wrapped(short, width - 2 * ARCH_PAD, ARCH_TEXT_PT))
+    boxes: dict[str, ArchBox] = {}
+    top = 0.0
+    for layer in layers:
+        width, title, lines = sized[layer]
+        height = 2 * ARCH_PAD + ARCH_TITLE_LINE + ARCH_LINE * len(lines)
+        top -= height
+        boxes[layer] = ArchBox(0.0, top, width, height, title, lines)
+        top -= ARCH_GAP_Y
+    side_x = ARCH_STACK_W + ARCH_GAP_X
+    for group, beside in (("domains", layers[-1]), ("beside", layers[-2])):  # the host, whose API they use; bench
+        width, title, lines = sized[group]
+        height = 2 * ARCH_PAD + ARCH_TITLE_LINE + ARCH_LINE * len(lines)
+        y = boxes[beside].y + (boxes[beside].h - height) / 2
+        if group == "beside":  # above the domains' box
+            y = max(y, boxes["domains"].y + boxes["domains"].h + ARCH_GAP_Y)
+        boxes[group] = ArchBox(side_x, y, width, height, title, lines)
+    return boxes
+
+
+def _spread(ends: Sequence[tuple[Any, float]], low: float, height: float) -> dict[Any, float]:
+    """Heights for the ends of arrows on one edge, spread over ``[low, low + height]`` in their keys' order."""
+    ordered = sorted(ends, key=lambda item: item[1])
+    return {end: low + height * (i + 1) / (len(ordered) + 1) for i, (end, _) in enumerate(ordered)}
+
+
+def _lanes(spans: dict[Edge, tuple[float, float]]) -> dict[Edge, int]:
+    """A lane per arrow between layers (0 nearest the stack): the shorter ones inside, and two arrows in one
+    lane only where their heights ``(low, high)`` lie a gap between boxes apart (never seeming one arrow)."""
+    lanes: dict[Edge, int] = {}
+    for e, (low, high) in sorted(spans.items(), key=lambda item: item[1][1] - item[1][0]):
+        near = [o for o in lanes if spans[o][0] < high + ARCH_GAP_Y and low - ARCH_GAP_Y < spans[o][1]]
+        taken = {lanes[o] for o in near}
+        lanes[e] = min(set(range(len(spans) + 1)) - taken)
+    return lanes
+
+
+def arch_arrows(layers: list[str], boxes: dict[str, ArchBox], edges: dict[Edge, int]) -> dict[Edge, list[Point]]:
+    """Each edge's arrow as a polyline, from its source box's edge to its target's, ending on no other box.
+
+    Between layers: out of a box's left edge, down a lane of its own left of the stack, into the target's left
+    edge; a box's arrows leave its lower half (the nearest target lowest) and enter its upper half (the
+    farthest source lowest), a box that only sends or only receives spreading them over its whole edge, so
+    that the lanes nest. Between the stack and a side box: straight across the gap, on the facing edges,
+    ordered by the other end's height. Between the side boxes: straight up or down between their facing edges.
+    """
+    ends: dict[tuple[Edge, int], Point] = {}  # (edge, 0) its start, (edge, 1) its end
+    centre = {g: b.y + b.h / 2 for g, b in boxes.items()}
+    down = [e for e in edges if e[0] in layers and e[1] in layers]
+    across = [e for e in edges if (e[0] in layers) != (e[1] in layers)]
+    for group, box in boxes.items():
+        if group in layers:
+            leaving = [((e, 0), layers.index(e[1])) for e in down if e[0] == group]
+            entering = [((e, 1), layers.index(e[0])) for e in down if e[1] == group]
+            split = box.y + box.h / 2 if leaving and entering else box.y + box.h * (not entering)
+            ends |= {k: (box.x, v) for k, v in _spread(leaving, box.y, split - box.y).items()}
+            ends |= {k: (box.x, v) for k, v in _spread(entering, split, box.y + box.h - split).items()}
+        facing = box.x + box.w if group in layers else box.x
+        side = [((e, e.index(group)), centre[e[1 - e.index(group)]]) for e in across if group in e]
+        ends |= {k: (facing, v) for k, v in _spread(side, box.y, box.h).items()}
+    for e in edges:
+        if e[0] not in layers and e[1] not in layers:
+            source, target = boxes[e[0]], boxes[e[1]]
+            up = source.y < target.y
+            ends[e, 0] = (source.x + source.w / 2, source.y + source.h if up else source.y)
+            ends[e, 1] = (target.x + target.w / 2, target.y if up else target.y + target.h)
+    lanes = _lanes({e: (ends[e, 1][1], ends[e, 0][1]) for e in down})
+    arrows = {e: [ends[e, 0], ends[e, 1]] for e in edges}
+    for e, lane in lanes.items():
+        (x0, y0), (x1, y1) = ends[e, 0], ends[e, 1]
+        x = min(x0, x1) - ARCH_LANE * (lane + 1)
+        arrows[e] = [(x0, y0), (x, y0), (x, y1), (x1, y1)]
+    return arrows
+
+
+def arch_points(polyline: list[Point], step: float = 0.01) -> Any:
+    """Points along a polyline, ``step`` inches apart at most (its corners included)."""
+    import numpy as np
+
+    parts = [np.array(polyline[:1], dtype=float)]
+    for a, b in itertools.pairwise(polyline):
+        n = max(1, int(np.ceil(np.hypot(b[0] - a[0], b[1] - a[1]) / step)))
+        parts.append(np.linspace(a, b, n + 1)[1:])
+    return np.concatenate(parts)
+
+
+def _count_places(
+    arrows: dict[Edge, list[Point]], edges: dict[Edge, int], boxes: dict[str, ArchBox]
+) -> dict[Edge, Point]:
+    """Where each arrow's count goes: on its longest segment, as near that segment's middle as it can while
+    covering no other arrow, no box (nor the arrow heads at its edges) and no other count."""
+    import numpy as np
+
+    taken = [(b.x - 0.12, b.y - 0.12, b.x + b.w + 0.12, b.y + b.h + 0.12) for b in boxes.values()]
+    places: dict[Edge, Point] = {}
+    for e, polyline in arrows.items():
+        half_w, half_h = _text_width(str(edges[e]), ARCH_COUNT_PT) / 2 + 0.04, ARCH_COUNT_PT / 144 + 0.03
+        others = np.concatenate([arch_points(p) for k, p in arrows.items() if k != e])
+        a, b = max(itertools.pairwise(polyline), key=lambda ab: np.hypot(*np.subtract(ab[1], ab[0])))
+        for t in (0.5, 0.4, 0.6, 0.3, 0.7, 0.2, 0.8, 0.1, 0.9):
+            x, y = a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])
+            rect = (x - half_w, y - half_h, x + half_w, y + half_h)
+            covered = (np.abs(others[:, 0] - x) < half_w) & (np.abs(others[:, 1] - y) < half_h)
+            if not covered.any() and not any(
+                rect[0] < r[2] and r[0] < rect[2] and rect[1] < r[3] and r[1] < rect[3] for r in taken
+            ):
+                break
+        taken.append(rect)
+        places[e] = (float(x), float(y))
+    return places
+
+
+def draw_architecture(layers: list[str], members: dict[str, list[str]], edges: dict[Edge, int]) -> Any:
+    """The Architecture figure (a matplotlib figure of one axes, one unit an inch): one box per layer (top:
+    the command; bottom: the plugin host) listing its modules, a box of the domains' plugins and one of the
+    packages beside the layers, and an arrow per pair of boxes labelled with its number of imports."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+    from matplotlib import patches
+    from matplotlib.path import Path as MplPath
+
+    boxes = arch_boxes(layers, members)
+    arrows = arch_arrows(layers, boxes, edges)
+    counts = _count_places(arrows, edges, boxes)
+    points = np.concatenate([*arrows.values(), [(b.x + b.w, b.y) for b in boxes.values()]])
+    left, right = points[:, 0].min() - 0.3, points[:, 0].max() + 0.1
+    bottom, top = points[:, 1].min() - 0.1, 0.5  # the title above the boxes
+    fig = plt.figure(figsize=(right - left, top - bottom))
+    ax = fig.add_axes((0.0, 0.0, 1.0, 1.0))
+    ax.set_axis_off()
+    ax.set_xlim(left, right)
+    ax.set_ylim(bottom, top)
+    title = "The layers of gym4real-core; each arrow: the number of imports from one box into another"
+    ax.text((left + right) / 2, 0.25, title, size=11, ha="center", va="center")
+    for group, box in boxes.items():
         colour = "#e8f0fb" if group in layers else "#f3f3f3"
-        ax.add_patch(patches.FancyBboxPatch((x, y), box_w, box_h, boxstyle="round,pad=0.04", facecolor=colour))
-        ax.text(x + 0.12, y + box_h - 0.2, f"{titles.get(group, group)} ({len(members[group])} modules)", weight="bold")
-        body = ", ".join(n for n in short if not n.startswith("_"))
-        ax.text(x + 0.12, y + box_h - 0.38, "\n".join(textwrap.wrap(body, 74)[:3]), size=7.5, va="top")
-    for (src, dst), count in sorted(edges.items()):
-        (x0, y0), (x1, y1) = place[src], place[dst]
-        if src in layers and dst in layers:  # down the stack, bulging left by how many layers it skips
-            span = layers.index(dst) - layers.index(src)
-            start, end, rad = (x0, y0 + box_h * 0.3), (x1, y1 + box_h * 0.7), 0.25 + 0.1 * span
-        else:  # across, between a box on the right and one of the stack
-            right = (box_w, y0 + box_h / 2) if x0 == 0 else (x0, y0 + box_h / 2)
-            left = (box_w, y1 + box_h / 2) if x1 == 0 else (x1, y1 + box_h / 2)
-            start, end, rad = right, left, 0.0
-        style = {"arrowstyle": "-|>", "color": "#4a5a70", "connectionstyle": f"arc3,rad={rad}", "lw": 0.9}
-        ax.annotate("", xy=end, xytext=start, arrowprops=style)
-        (sx, sy), (ex, ey) = ax.transData.transform([start, end])  # the arc's middle, as matplotlib bends it
-        middle = ((sx + ex) / 2 + rad * (ey - sy) / 2, (sy + ey) / 2 - rad * (ex - sx) / 2)
-        label = ax.transData.inverted().transform(middle)
-        ax.text(*label, str(count), size=7.5, ha="center", bbox={"facecolor": "white", "edgecolor": "none", "pad": 0.5})
-    ax.set_title("The layers of gym4real-core; each arrow: the number of imports from one box into another", size=11)
+        ax.add_patch(patches.FancyBboxPatch((box.x, box.y), box.w, box.h, boxstyle="round,pad=0.02", facecolor=colour))
+        x, y = box.x + ARCH_PAD, box.y + box.h - ARCH_PAD
+        ax.text(x, y, box.title, size=ARCH_TITLE_PT, weight="bold", va="top")
+        if box.lines:
+            ax.text(x, y - ARCH_TITLE_LINE, "\n".join(box.lines), size=ARCH_TEXT_PT, va="top", linespacing=1.4)
+    white = {"facecolor": "white", "edgecolor": "none", "pad": 0.5}
+    for e, polyline in arrows.items():
+        arrow = patches.FancyArrowPatch(
+            path=MplPath(polyline), arrowstyle="-|>", mutation_scale=9, shrinkA=0, shrinkB=0
+        )
+        arrow.set(color="#4a5a70", linewidth=0.9)
+        ax.add_patch(arrow)
+        ax.text(*counts[e], str(edges[e]), size=ARCH_COUNT_PT, ha="center", va="center", bbox=white)
+    return fig
+
+
+def architecture_figure(path: Path) -> Path:
+    """Draw the layers of gym4real-core from the import graph of the installed code into ``path`` (an SVG)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    matplotlib.rcParams["svg.fonttype"] = "none"  # the names stay text in the SVG (searchable, selectable)
+    fig = draw_architecture(*import_groups())
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, bbox_inches="tight")
+    fig.savefig(path)
     plt.close(fig)
     return path
 
@@ -534,9 +743,16 @@ def architecture_figure(path: Path) -> Path:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--figures", type=Path, help="folder of gym4real bench results, one subfolder per env")
+    parser.add_argument(
+        "--pack-figures", action="store_true", help="rewrite the common figures of --figures with a palette"
+    )
     parser.add_argument("--gifs", action="store_true", help="record an episode GIF of each env's best baseline")
     parser.add_argument("--gif-steps", type=int, default=360, help="steps of the recorded episode at most")
     args = parser.parse_args()
+    if args.pack_figures:
+        if args.figures is None:
+            parser.error("--pack-figures rewrites the PNGs of --figures DIR: name the folder")
+        print(f"packed {len(pack_figures(args.figures))} figures of {args.figures}")
     out, snippets = DOCS / "envs", DOCS / "snippets"
     for folder in (out, snippets):
         shutil.rmtree(folder, ignore_errors=True)

@@ -4,6 +4,8 @@ check finds broken images, links and pages."""
 from __future__ import annotations
 
 import ast
+import json
+import os
 import re
 import shutil
 import subprocess
@@ -11,9 +13,10 @@ import sys
 from collections.abc import Callable
 from importlib.metadata import version
 from pathlib import Path
-from types import ModuleType
+from types import ModuleType, SimpleNamespace
 
 import gymnasium as gym
+import pandas as pd
 import pytest
 from PIL import Image
 
@@ -302,6 +305,7 @@ def test_site_builds_strict_with_the_env_pages_in_the_nav_and_an_executed_tutori
     subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "-q"], check=True, cwd=tmp_path)
 
     site = tmp_path / "site"
+    assert not list(site.glob("*.py")) and not (site / "bench").exists()  # the build's scripts and inputs stay out
     home = (site / "index.html").read_text()
     nav = set(re.findall(r'<a href="([^"]+)" class="md-nav__link', home))
     for env_id in ids:  # each env page: in the navigation, and in the gallery as its GIF linking to it
@@ -399,3 +403,232 @@ def test_an_env_page_caption_names_the_upper_reference_apart_from_the_ranked_pol
     caption = gen_pages.figure_caption("cumulative_reward.png", run)
     assert "Policies <code>max</code>, <code>ead</code>, best first by the IQM of the objective; then the " in caption
     assert "non-causal upper reference <code>hindsight</code>, drawn apart (black star), not ranked" in caption
+
+
+def test_architecture_figure_holds_each_list_in_its_box_and_no_arrow_crosses_a_text(
+    load_script: Callable[[Path], ModuleType],
+) -> None:
+    """Issue 45: the module lists overflowed their boxes and arrows crossed them. Measured as drawn (Agg)."""
+    pytest.importorskip("grimp", reason="the docs session installs import-linter")
+    from matplotlib.patches import FancyArrowPatch, FancyBboxPatch
+    from matplotlib.path import Path as MplPath
+
+    gen_pages = load_script(ROOT / "docs" / "gen_pages.py")
+    layers, members, edges = gen_pages.import_groups()
+    assert {"gym4real.cli", "gym4real.core"} <= set(layers) and edges[("domains", "gym4real.core")] > 0
+    fig = gen_pages.draw_architecture(layers, members, edges)
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    (ax,) = fig.axes
+    boxes = [p.get_window_extent(renderer) for p in ax.patches if isinstance(p, FancyBboxPatch)]
+    arrows = [  # each arrow's line and head as open polylines (a closing vertex would count as a point at 0, 0)
+        [MplPath(line) for line in p.get_transform().transform_path(p.get_path()).to_polygons(closed_only=False)]
+        for p in ax.patches
+        if isinstance(p, FancyArrowPatch)
+    ]
+    assert len(boxes) == len(members) and len(arrows) == len(edges)
+    counts = [t for t in ax.texts if t.get_bbox_patch() is not None]
+    assert sorted(int(t.get_text()) for t in counts) == sorted(edges.values())
+    listed = " ".join(t.get_text() for t in ax.texts)
+    for group, modules in members.items():  # every public module of a layer, each package beside, is named
+        depth = 2 if group in layers else 1
+        names = {m.split(".")[depth] for m in modules if m.count(".") >= depth} - {""}
+        names = {n for n in names if not n.startswith("_")}
+        assert names
+        assert all(re.search(rf"\b{name}\b", listed) for name in names)
+    for text in ax.texts:
+        extent = text.get_window_extent(renderer)
+        if text in counts:  # a count covers its own arrow only
+            assert sum(any(line.intersects_bbox(extent, filled=False) for line in a) for a in arrows) == 1, (
+                text.get_text()
+            )
+            continue
+        inside = [
+            b for b in boxes if b.x0 <= extent.x0 and extent.x1 <= b.x1 and b.y0 <= extent.y0 and extent.y1 <= b.y1
+        ]
+        assert inside or not any(b.overlaps(extent) for b in boxes), f"{text.get_text()!r} overflows its box"
+        assert not any(line.intersects_bbox(extent, filled=False) for a in arrows for line in a), text.get_text()
+
+
+BENCH = ROOT / "docs" / "bench"
+
+
+def _noxfile(load_script: Callable[[Path], ModuleType], monkeypatch: pytest.MonkeyPatch) -> ModuleType:
+    """The noxfile, its sessions plain functions (a stand-in for nox, which the test venvs do not install)."""
+    fake = ModuleType("nox")
+
+    def session(*args: object, **kwargs: object) -> object:
+        return args[0] if args and callable(args[0]) else (lambda f: f)
+
+    fake.session = session  # type: ignore[attr-defined]
+    fake.parametrize = lambda *args, **kwargs: lambda f: f  # type: ignore[attr-defined]
+    fake.options = SimpleNamespace()  # type: ignore[attr-defined]
+    fake.project = SimpleNamespace(dependency_groups=lambda *a: [], load_toml=lambda path: {})  # type: ignore[attr-defined]
+    monkeypatch.setitem(sys.modules, "nox", fake)
+    return load_script(ROOT / "noxfile.py")
+
+
+class _Session:
+    """What a nox session is asked to do: its installs, its commands (in order) and its log."""
+
+    def __init__(self, posargs: list[str], ids: list[str]) -> None:
+        self.posargs, self.ids = posargs, ids
+        self.runs: list[tuple[str, ...]] = []
+        self.envs: list[dict[str, str]] = []  # each run's environment
+        self.logs: list[str] = []
+
+    def install(self, *args: str, **kwargs: object) -> None:
+        pass
+
+    def log(self, message: str) -> None:
+        self.logs.append(message)
+
+    def error(self, message: str) -> None:
+        raise SystemExit(message)
+
+    def run(self, *args: str, **kwargs: object) -> str | None:
+        self.runs.append(args)
+        self.envs.append(dict(kwargs.get("env") or {}))  # type: ignore[call-overload]
+        return " ".join(self.ids) if args[:2] == ("python", "-c") else None
+
+
+def test_the_docs_session_builds_from_the_committed_bench_results_and_benchmarks_only_with_refresh(
+    load_script: Callable[[Path], ModuleType], monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """Issue 47: the docs build re-benchmarked every env (42 minutes); now `-- --refresh` alone does."""
+    noxfile = _noxfile(load_script, monkeypatch)
+    monkeypatch.setenv("GYM4REAL_CHROMIUM", sys.executable)  # any binary: the session only looks it up
+    assert noxfile.BENCH == BENCH
+    session = _Session([], ["gym4real/dam-v0", "gym4real/wds-v0"])
+    noxfile.docs(session)
+    assert not [run for run in session.runs if "bench" in run]
+    (pages,) = [run for run in session.runs if "docs/gen_pages.py" in run]
+    assert pages[pages.index("--figures") + 1] == str(BENCH) and "--pack-figures" not in pages
+    assert [run[:2] for run in session.runs] == [
+        ("python", "docs/gen_pages.py"),
+        ("mkdocs", "build"),
+        ("python", "docs/check_site.py"),
+    ]
+    assert re.search(r"no benchmark runs.*CPU-minutes.*\d+ to \d+ minutes on an idle 2-core machine", session.logs[0])
+
+    monkeypatch.setattr(noxfile, "BENCH", tmp_path / "bench")
+    (tmp_path / "bench" / "gym4real_dam-v0").mkdir(parents=True)
+    (tmp_path / "bench" / "gym4real_dam-v0" / "old.png").write_bytes(b"")  # a figure the new run may not draw
+    session = _Session(["--refresh"], ["gym4real/dam-v0", "gym4real/wds-v0"])
+    noxfile.docs(session)
+    benches = [run for run in session.runs if run[:2] == ("gym4real", "bench")]
+    assert [run[2] for run in benches] == session.ids
+    assert [run[run.index("--out") + 1] for run in benches] == [
+        str(tmp_path / "bench" / i.replace("/", "_")) for i in session.ids
+    ]
+    assert not (tmp_path / "bench" / "gym4real_dam-v0" / "old.png").exists()
+    (pages,) = [run for run in session.runs if "docs/gen_pages.py" in run]
+    assert "--pack-figures" in pages and session.runs.index(pages) > session.runs.index(benches[-1])
+    assert "--refresh" in session.logs[0] and "45 minutes" in session.logs[0]
+
+    with pytest.raises(SystemExit, match="the only option is `-- --refresh`"):
+        noxfile.docs(_Session(["--refesh"], []))
+
+
+def test_the_committed_bench_results_are_each_envs_current_test_protocol_and_small(
+    load_script: Callable[[Path], ModuleType],
+) -> None:
+    """docs/bench/ holds, per single-objective env, the run of its registered protocol (its policies and
+    episodes as the registry has them now), the two figures the page shows, under 1 MB in all."""
+    from gym4real.bench.benchmark import _jsonable, protocol
+    from gym4real.core.registry import load_object
+
+    ids = gym4real.list_envs(multi_objective=False)
+    assert sorted(p.name for p in BENCH.iterdir()) == sorted(i.replace("/", "_") for i in ids)
+    for env_id in ids:
+        folder = BENCH / env_id.replace("/", "_")
+        run = json.loads((folder / "results.json").read_text(encoding="utf-8"))
+        spec = protocol(env_id)
+        plan = load_object(spec.protocol)(dict(spec.env_kwargs))
+        assert (
+            run["env_id"] == env_id and run["protocol"]["test"] and run["protocol"]["description"] == spec.description
+        )
+        assert sorted(run["ranking"]) == sorted(spec.policies), env_id
+        assert run["episodes"] == [_jsonable(e) for e in plan], env_id
+        summary = pd.read_csv(folder / "summary.csv", index_col="policy")
+        assert sorted(summary.index) == sorted(spec.policies) and (summary["episodes"] == len(plan)).all()
+        assert {"cumulative_reward.png", "returns_boxplot.png"} <= {p.name for p in folder.glob("*.png")}
+    assert sum(p.stat().st_size for p in BENCH.rglob("*") if p.is_file()) < 1_000_000
+
+
+def test_the_committed_elevator_bench_is_what_gym4real_bench_measures_now() -> None:
+    """The committed numbers are reproduced: the elevator's protocol run again gives every episode's return."""
+    committed = pd.read_csv(BENCH / "gym4real_elevator-v0" / "episodes.csv")
+    fresh = gym4real.benchmark("gym4real/elevator-v0", episodes="test").per_episode()
+    columns = ["policy", "episode", "seed", "return", "objective"]
+    pd.testing.assert_frame_equal(
+        fresh[columns].sort_values(["policy", "episode"]).reset_index(drop=True),
+        committed[columns].sort_values(["policy", "episode"]).reset_index(drop=True),
+        check_dtype=False,
+    )
+
+
+def test_the_site_leaves_out_the_build_scripts_and_the_bench_folder() -> None:
+    """Issue 45: `site/` shipped docs/gen_pages.py, check_site.py and griffe_roles.py."""
+    pytest.importorskip("mkdocs", reason="the docs session installs mkdocs")
+    import yaml
+    from mkdocs.config.config_options import PathSpec
+
+    exclude = yaml.safe_load((ROOT / "mkdocs.yml").read_text(encoding="utf-8"))["exclude_docs"]
+    spec = PathSpec().validate(exclude)  # mkdocs' own reading of `exclude_docs`
+    scripts = [p.relative_to(ROOT / "docs").as_posix() for p in (ROOT / "docs").glob("*.py")]
+    assert {"gen_pages.py", "check_site.py", "griffe_roles.py"} <= set(scripts)
+    assert all(spec.match_file(s) for s in scripts)
+    assert spec.match_file("bench/gym4real_dam-v0/results.json")
+    assert not spec.match_file("tutorials/tutorial_1_make_step_render.py")  # the tutorials' downloads stay
+    assert not spec.match_file("envs/figures/gym4real_dam-v0/returns_boxplot.png")
+
+
+def test_packing_the_bench_figures_keeps_them_as_drawn_at_a_fraction_of_the_bytes(
+    tmp_path: Path, load_script: Callable[[Path], ModuleType]
+) -> None:
+    import io
+
+    import numpy as np
+
+    gen_pages = load_script(ROOT / "docs" / "gen_pages.py")
+    folder = tmp_path / "gym4real_elevator-v0"
+    gym4real.benchmark("gym4real/elevator-v0", ["longest_first", "random"], episodes=3, out=folder)
+    drawn = {p.name: p.read_bytes() for p in folder.glob("*.png")}
+    (folder / "heatmap.png").write_bytes(drawn["cumulative_reward.png"])  # a domain's own figure: left alone
+    packed = gen_pages.pack_figures(tmp_path)
+    assert sorted(p.name for p in packed) == ["cumulative_reward.png", "returns_boxplot.png"]
+    assert (folder / "heatmap.png").read_bytes() == drawn["cumulative_reward.png"]
+    for png in packed:
+        assert png.stat().st_size < 0.5 * len(drawn[png.name])
+        with Image.open(png) as after, Image.open(io.BytesIO(drawn[png.name])) as before:
+            difference = np.abs(np.asarray(after.convert("RGB"), int) - np.asarray(before.convert("RGB"), int))
+        assert difference.mean() < 1.0 and np.percentile(difference, 99.9) < 24, png.name  # of 0-255 per channel
+    again = {p.name: p.read_bytes() for p in folder.glob("*.png")}
+    assert gen_pages.pack_figures(tmp_path) == [] and {p.name: p.read_bytes() for p in folder.glob("*.png")} == again
+
+
+def test_the_docs_session_silences_mkdocs_gallerys_deprecated_import_and_no_other_deprecation(
+    load_script: Callable[[Path], ModuleType], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Issue 45: `mkdocs build` printed a DeprecationWarning with its stack trace (mkdocs-gallery's import of
+    `mkdocs.utils.warning_filter`); the session's warning filter hides that one, and shows other deprecations."""
+    pytest.importorskip("mkdocs_gallery", reason="the docs session installs mkdocs-gallery")
+    noxfile = _noxfile(load_script, monkeypatch)
+    code = (
+        "import mkdocs_gallery.mkdocs_compatibility\n"
+        "exec('import warnings; warnings.warn(\"another deprecation\", DeprecationWarning)', {'__name__': 'a.module'})"
+    )
+    printed = {}
+    for name, filters in (("mkdocs' own", "module::DeprecationWarning"), ("the session's", noxfile.MKDOCS_WARNINGS)):
+        env = {k: v for k, v in os.environ.items() if k != "PYTHONWARNINGS"} | {"PYTHONWARNINGS": filters}
+        run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
+        printed[name] = run.stderr
+    assert "warning_filter doesn't do anything" in printed["mkdocs' own"]  # what the build printed
+    assert "warning_filter" not in printed["the session's"]
+    assert "another deprecation" in printed["the session's"]
+    monkeypatch.setenv("GYM4REAL_CHROMIUM", sys.executable)
+    session = _Session([], [])
+    noxfile.docs(session)
+    (build,) = [i for i, run in enumerate(session.runs) if run[:2] == ("mkdocs", "build")]
+    assert session.envs[build]["PYTHONWARNINGS"] == noxfile.MKDOCS_WARNINGS
