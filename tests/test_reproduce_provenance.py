@@ -16,6 +16,7 @@ import pandas as pd
 import pytest
 
 from gym4real.results import fingerprints
+from gym4real.results.provenance import RUNS_TEXT
 from gym4real.results.published_models import sha256_of
 from gym4real.results.results_page import refresh_manifest
 
@@ -154,7 +155,7 @@ def test_the_manifest_lists_the_distributions_the_runs_imported(elevator_quick: 
     for dist in ("numpy", "gymnasium", "pydantic", "PyYAML", "matplotlib", "pandas"):  # all used by a run
         assert imported[dist] == metadata.version(dist), dist
     assert "torch" not in imported  # a tabular section never imports torch
-    runs = pd.read_csv(elevator_quick / "elevator-v0-quick" / "runs.csv")
+    runs = pd.read_csv(elevator_quick / "elevator-v0-quick" / "runs.csv", dtype=RUNS_TEXT)
     assert runs["resumes"].tolist() == ["[]", "[]"] and runs["trained_by"].str.len().gt(0).all()
 
 

@@ -17,6 +17,7 @@ from typing import Any
 from gym4real.bench.published import LISTING
 from gym4real.bench.versions import NOT_RECORDED
 from gym4real.rl.imported import union
+from gym4real.results.provenance import RUNS_TEXT
 from gym4real.results.published_models import sha256_of
 
 
@@ -54,7 +55,7 @@ def machines(folder: Path, report: dict[str, Any]) -> dict[str, Any]:
     import pandas as pd
 
     trained: dict[str, int] = {}
-    runs = pd.read_csv(folder / "runs.csv") if (folder / "runs.csv").exists() else pd.DataFrame()
+    runs = pd.read_csv(folder / "runs.csv", dtype=RUNS_TEXT) if (folder / "runs.csv").exists() else pd.DataFrame()
     for row in runs.to_dict("records"):
         cpus = {str(row.get("cpu", NOT_RECORDED))}
         resumes = row.get("resumes")

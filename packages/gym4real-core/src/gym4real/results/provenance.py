@@ -17,6 +17,9 @@ from gym4real.rl.imported import imported_distributions, union
 from gym4real.rl.schedules import learning_rate_words
 from gym4real.rl.train import TrainingRun
 
+#: Columns of ``runs.csv`` read as text: a commit such as ``266e395`` would otherwise be read as a number.
+RUNS_TEXT = {"trained_by": str}
+
 def imported(runs: list[TrainingRun]) -> dict[str, str]:
     """The distributions this process and the ``runs`` (their ``run.json``, where recorded) imported.
 

@@ -22,6 +22,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from gym4real.results.provenance import RUNS_TEXT
+
 from gym4real.bench import stats
 from gym4real.bench.numbers import human
 from gym4real.bench.published import FOLDER as MODELS
@@ -183,7 +185,7 @@ class Section:
         self.summary = pd.read_csv(folder / "summary.csv")
         self.improvement = pd.read_csv(folder / "improvement.csv")
         self.claims: list[dict[str, Any]] = json.loads((folder / "claims.json").read_text())
-        self.runs = pd.read_csv(folder / "runs.csv") if (folder / "runs.csv").exists() else None
+        self.runs = pd.read_csv(folder / "runs.csv", dtype=RUNS_TEXT) if (folder / "runs.csv").exists() else None
         self.scale = float(self.episodes["objective"].abs().max())
         self.stale = section_changes(folder)
 
