@@ -17,6 +17,8 @@ Each problem names the file and its section. A folder with any of them is *damag
 
 from __future__ import annotations
 
+import re
+
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -25,6 +27,9 @@ from typing import Any
 from gym4real.bench.published import LISTING
 from gym4real.core.datasets import sha256_of
 from gym4real.core.errors import Gym4RealError
+
+#: The name of a results folder: ``<env>-<budget>``.
+FOLDER = re.compile(r"^(?P<env>[a-z0-9-]+)-(?P<budget>paper|quick)$")
 
 #: The listing of a results folder's files.
 MANIFEST = "manifest.json"
@@ -144,8 +149,6 @@ def _hash(out: Path, files: dict[str, _File]) -> None:
 
 def verify(out: str | Path) -> Verification:
     """Check every file of the results folder ``out`` against its ``manifest.json`` and ``models.json``."""
-    from gym4real.results.results_page import FOLDER
-
     out = Path(out)
     found = Verification()
     manifest = _manifest(out, found)

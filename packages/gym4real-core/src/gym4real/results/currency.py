@@ -69,7 +69,7 @@ def reproduce_stale(
         jobs: Training runs at a time.
     """
     from gym4real.results.reproduce import reproduce
-    from gym4real.results.results_page import FOLDER
+    from gym4real.results.artefacts import FOLDER
 
     if not out.is_dir():
         raise Gym4RealError(f"`{out}` is not a folder: pass the --out folder of an earlier `gym4real reproduce`")
@@ -183,7 +183,7 @@ def check(out: str | Path) -> Check:
     a section is current, stale (what changed) or not checkable here (the data files it read are not here,
     or its env cannot be made; with the commands that make it checkable).
     """
-    from gym4real.results.results_page import FOLDER
+    from gym4real.results.artefacts import FOLDER
 
     out = Path(out)
     if not out.is_dir():

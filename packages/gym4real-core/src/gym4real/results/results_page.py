@@ -28,7 +28,7 @@ from gym4real.bench import stats
 from gym4real.bench.numbers import human
 from gym4real.bench.published import FOLDER as MODELS
 from gym4real.results import analysis, summary_figure, workspace
-from gym4real.results.artefacts import MANIFEST, PAGE, RENDERED, DamagedResultsError, read_json
+from gym4real.results.artefacts import FOLDER, MANIFEST, PAGE, RENDERED, DamagedResultsError, read_json
 from gym4real.results.claims import QUANTITIES, RULES, VERDICTS
 from gym4real.results.fingerprints import section_changes
 from gym4real.results.headroom_page import headroom_table
@@ -36,8 +36,6 @@ from gym4real.results.page_manifest import files_sha256, imported_by_all, sectio
 from gym4real.results.section_provenance import currency_line, models_lines, run_provenance
 from gym4real.results.stand_ins import budget_mark, difference_lines
 
-#: The name of a results folder: ``<env>-<budget>``.
-FOLDER = re.compile(r"^(?P<env>[a-z0-9-]+)-(?P<budget>paper|quick)$")
 #: The files of a results folder that the page folder holds.
 PUBLISHED = (
     "episodes.csv",
