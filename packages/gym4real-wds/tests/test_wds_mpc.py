@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from gym4real.bench.benchmark import run_episode
-from gym4real.core.errors import PolicyError
 from gym4real.cli import main
+from gym4real.core.errors import PolicyError
 from gym4real.core.registry import registry
 from gym4real.wds import demand
 from gym4real.wds.env import WDSEnv

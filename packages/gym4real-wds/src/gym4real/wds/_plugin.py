@@ -106,8 +106,8 @@ def gym4real_register_baselines() -> list[BaselineSpec]:
             ENV_ID,
             "mpc",
             "gym4real.wds.mpc:mpc",
-            "causal model-predictive control: forecast demand (past days' hours, the training profiles' daily shape), "
-            "beam search over the next 24 h every 4 h",
+            "causal model-predictive control: every hour, the hindsight planner's beam search over the next 6 hours "
+            "on forecast demand (the past days' same hour and the training profiles' daily shape)",
         ),
         BaselineSpec(
             ENV_ID,
