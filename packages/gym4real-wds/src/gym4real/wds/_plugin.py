@@ -91,7 +91,7 @@ def gym4real_register_datasets() -> list[DatasetSpec]:
 
 @hookimpl
 def gym4real_register_baselines() -> list[BaselineSpec]:
-    """Random, the two single-pump policies, the network's tank-level rule and the non-causal hindsight planner."""
+    """Random, the single-pump policies, the tank-level rule, the causal MPC and the non-causal hindsight planner."""
     return [
         BaselineSpec(ENV_ID, "random", "gym4real.core.policies:random_policy", "uniform random pump combinations"),
         BaselineSpec(ENV_ID, "p78", "gym4real.wds.baselines:p78", "P78 always on, P79 off (action 2)"),
@@ -101,6 +101,13 @@ def gym4real_register_baselines() -> list[BaselineSpec]:
             "default",
             "gym4real.wds.baselines:default",
             "the network's [CONTROLS] tank-level rule: pump on below 5 m, off above 8 m (the expert)",
+        ),
+        BaselineSpec(
+            ENV_ID,
+            "mpc",
+            "gym4real.wds.mpc:mpc",
+            "causal model-predictive control: every hour, the hindsight planner's beam search over the next 6 hours "
+            "on forecast demand (the past days' same hour and the training profiles' daily shape)",
         ),
         BaselineSpec(
             ENV_ID,

@@ -144,3 +144,32 @@ def exp_moving_average(pattern: np.ndarray, span: int) -> np.ndarray:
         den = 1.0 + decay * den
         out[i] = num / den
     return out
+
+
+def multipliers(estimates: np.ndarray, estimate: str, window: int) -> np.ndarray:
+    """The multipliers a run of demand estimates was computed from, from the first pattern step on.
+
+    The inverse of :func:`moving_average` (``estimate="sma"``) and :func:`exp_moving_average` (``"ewma"``):
+    ``multipliers(moving_average(p, w), "sma", w)`` is ``p`` up to rounding. An agent recovers in this way the
+    multipliers of every hour so far from the demand estimates it has observed.
+
+    Raises:
+        ValueError: ``estimate`` is neither ``"sma"`` nor ``"ewma"``, or ``window`` is below 1.
+    """
+    if estimate not in ("sma", "ewma") or window < 1:
+        raise ValueError(f'`estimate` must be "sma" or "ewma" and `window` >= 1, not {estimate!r} and {window}')
+    values = np.asarray(estimates, dtype=np.float64)
+    out = np.empty(len(values))
+    if estimate == "sma":
+        for i, mean in enumerate(values):
+            n = min(i + 1, window)
+            out[i] = n * mean - out[i - n + 1 : i].sum()
+        return out
+    decay = 1.0 - 2.0 / (window + 1.0)
+    previous = den = 0.0
+    for i, mean in enumerate(values):
+        den = 1.0 + decay * den
+        weighted = mean * den  # the decayed sum of the multipliers so far
+        out[i] = weighted - decay * previous
+        previous = weighted
+    return out

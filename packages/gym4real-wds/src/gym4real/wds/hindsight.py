@@ -155,39 +155,15 @@ class WDSHindsight:
 
     def _objective(self, info: dict[str, Any]) -> float:
         if self._component_weights is None:
-            return float(sum(info["reward_components"].values()))
+            return step_return(info)
         of = self._component_weights
         return float(sum(of.get(c, 0.0) * v for c, v in info["reward_components"].items()))
 
     def _search(self) -> tuple[tuple[int, ...], float]:
-        """The beam search: the best schedule and its return in the search."""
+        """The beam search over the week: the best schedule and its return in the search."""
         env = self.env
-        n_actions = 2 ** len(env.network.pump_ids)
-        sims = self._pool(self.width * n_actions)
-        threshold = env._ovf_start
-        low = env.network.tank_min_level
-        beam = [_Node(sims[0]._levels.copy(), 0.0, ())]
-        for _ in range(env._decisions):
-            children: list[_Node] = []
-            for index, sim in enumerate(sims):  # every copy steps every hour, so that all keep one clock
-                k, a = divmod(index, n_actions)
-                node = beam[k] if k < len(beam) else beam[0]
-                _restore(sim, node.levels)
-                _, _, _, _, info = sim.step(a)
-                if k < len(beam):
-                    children.append(_Node(sim._levels.copy(), node.value + self._objective(info), (*node.actions, a)))
-            buffer = [float(np.minimum(c.levels, threshold).sum() - low.sum()) for c in children]
-            order = sorted(range(len(children)), key=lambda i: (-children[i].value, -buffer[i]))
-            beam, cells = [], set()
-            for i in order:
-                cell = tuple(np.floor(children[i].levels / self.resolution).astype(int))
-                if cell in cells:
-                    continue
-                cells.add(cell)
-                beam.append(children[i])
-                if len(beam) == self.width:
-                    break
-        return beam[0].actions, beam[0].value
+        sims = self._pool(self.width * 2 ** len(env.network.pump_ids))
+        return beam_search(sims, sims[0]._levels, env._decisions, self._objective, self.width, self.resolution)
 
     def _rules(self) -> dict[str, Callable[[np.ndarray], int]]:
         """The rule-based schedules replayed as candidates: each pump alone and the tank-level rule."""
@@ -228,6 +204,63 @@ class WDSHindsight:
             if truncated:
                 break
         return total
+
+
+def step_return(info: dict[str, Any]) -> float:
+    """A step's reward from its ``info``: the sum of its reward components (the protocol's objective)."""
+    return float(sum(info["reward_components"].values()))
+
+
+def beam_search(
+    sims: Sequence[WDSEnv],
+    levels: np.ndarray,
+    hours: int,
+    objective: Callable[[dict[str, Any]], float],
+    width: int = WIDTH,
+    resolution: float = RESOLUTION,
+) -> tuple[tuple[int, ...], float]:
+    """The beam search of the module docstring: the best schedule of ``hours`` decisions and its return.
+
+    Args:
+        sims: ``width * 2**P`` copies of the env (P pumps) at one time with one demand; all of them step every
+            decision, so that they keep one clock.
+        levels: The tanks' levels (m) the search starts from.
+        hours: Decisions to plan.
+        objective: A step's score from its ``info``.
+        width: Search nodes kept per decision.
+        resolution: Tank-level cell (m) within which nodes are merged.
+
+    Returns:
+        The actions of the best node after ``hours`` decisions and its return in the search.
+    """
+    first = sims[0]
+    n_actions = 2 ** len(first.network.pump_ids)
+    if len(sims) != width * n_actions:
+        raise PolicyError(f"the beam search of width {width} steps {width * n_actions} copies, not {len(sims)}")
+    threshold = first._ovf_start
+    low = first.network.tank_min_level
+    beam = [_Node(np.array(levels, dtype=np.float64), 0.0, ())]
+    for _ in range(hours):
+        children: list[_Node] = []
+        for index, sim in enumerate(sims):  # every copy steps every hour, so that all keep one clock
+            k, a = divmod(index, n_actions)
+            node = beam[k] if k < len(beam) else beam[0]
+            _restore(sim, node.levels)
+            _, _, _, _, info = sim.step(a)
+            if k < len(beam):
+                children.append(_Node(sim._levels.copy(), node.value + objective(info), (*node.actions, a)))
+        buffer = [float(np.minimum(c.levels, threshold).sum() - low.sum()) for c in children]
+        order = sorted(range(len(children)), key=lambda i: (-children[i].value, -buffer[i]))
+        beam, cells = [], set()
+        for i in order:
+            cell = tuple(np.floor(children[i].levels / resolution).astype(int))
+            if cell in cells:
+                continue
+            cells.add(cell)
+            beam.append(children[i])
+            if len(beam) == width:
+                break
+    return beam[0].actions, beam[0].value
 
 
 def _restore(sim: WDSEnv, levels: np.ndarray) -> None:
