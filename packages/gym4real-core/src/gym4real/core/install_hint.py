@@ -41,12 +41,20 @@ def _core_checkout() -> tuple[Path, bool] | None:
     return Path(unquote(url.path)).parent, bool(record["dir_info"].get("editable"))
 
 
-def install_command(dist: str) -> str:
-    """Return the command that installs ``dist`` (``gym4real-dam``) beside this core."""
+def _in_checkout(dist: str) -> tuple[Path, bool] | None:
+    """The folder of ``dist`` in the checkout core was installed from, and whether core is editable; else None."""
     checkout = _core_checkout()
     if checkout is not None and (checkout[0] / dist / "pyproject.toml").is_file():
-        folder, editable = checkout
-        return f"`pip install {'-e ' if editable else ''}{folder / dist}` (from the checkout core came from)"
+        return checkout[0] / dist, checkout[1]
+    return None
+
+
+def install_command(dist: str) -> str:
+    """Return the command that installs ``dist`` (``gym4real-dam``) beside this core."""
+    found = _in_checkout(dist)
+    if found is not None:
+        folder, editable = found
+        return f"`pip install {'-e ' if editable else ''}{folder}` (from the checkout core came from)"
     return f"`pip install ./packages/{dist}` from a gym4real checkout, or `pip install {dist}` once it is on PyPI"
 
 
@@ -154,10 +162,10 @@ def extra_requirements(extra: str) -> list[Requirement]:
 
 def extra_command(extra: str) -> str:
     """``pip install "gym4real-core[bench]"``, or the checkout's folder of core when it came from one."""
-    checkout = _core_checkout()
-    if checkout is not None and (checkout[0] / CORE / "pyproject.toml").is_file():
-        folder, editable = checkout
-        return f'pip install {"-e " if editable else ""}"{folder / CORE}[{extra}]"'
+    found = _in_checkout(CORE)
+    if found is not None:
+        folder, editable = found
+        return f'pip install {"-e " if editable else ""}"{folder}[{extra}]"'
     return f'pip install "{CORE}[{extra}]"'
 
 

@@ -27,7 +27,7 @@ from pathlib import Path
 
 from gym4real.core.errors import Gym4RealError
 from gym4real.core.registry import slug
-from gym4real.results.artefacts import PAGE_FILES, DamagedResultsError, verify
+from gym4real.results.artefacts import FOLDER, PAGE_FILES, DamagedResultsError, verify
 from gym4real.results.fingerprints import not_here, section_changes
 
 
@@ -69,8 +69,6 @@ def reproduce_stale(
         jobs: Training runs at a time.
     """
     from gym4real.results.reproduce import reproduce
-    from gym4real.results.artefacts import FOLDER
-
     if not out.is_dir():
         raise Gym4RealError(f"`{out}` is not a folder: pass the --out folder of an earlier `gym4real reproduce`")
     lines = []
@@ -183,8 +181,6 @@ def check(out: str | Path) -> Check:
     a section is current, stale (what changed) or not checkable here (the data files it read are not here,
     or its env cannot be made; with the commands that make it checkable).
     """
-    from gym4real.results.artefacts import FOLDER
-
     out = Path(out)
     if not out.is_dir():
         raise Gym4RealError(f"`{out}` is not a folder: pass the output folder of `gym4real reproduce` or a page folder")
