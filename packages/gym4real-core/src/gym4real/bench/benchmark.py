@@ -29,7 +29,16 @@ import pandas as pd
 from gym4real.bench import stats
 from gym4real.bench.policies import make_policy
 from gym4real.core.errors import ConfigError
-from gym4real.core.registry import MARK, base_env, baseline_names, env_spec, load_object, non_causal, registry
+from gym4real.core.registry import (
+    MARK,
+    base_env,
+    baseline_names,
+    env_spec,
+    load_object,
+    non_causal,
+    registry,
+    upper_reference,
+)
 from gym4real.core.specs import BenchmarkSpec
 from gym4real.wrappers.multi_objective import MultiObjective
 
@@ -279,7 +288,8 @@ def _seeds_text(seeds: Sequence[Any]) -> str:
 def _planned_notes(result: BenchmarkResult) -> list[str]:
     """Per planner (an upper reference): its planned objective beside the replayed one, and what it is."""
     notes = [
-        f"{result.labels[name]}: {MARK}, knows what no agent can know in advance (not a baseline to beat)"
+        f"{result.labels[name]}: {MARK} ({upper_reference(result.env_id, name).bound_words()}), knows what no agent "
+        "can know in advance (not a baseline to beat)"
         for name in result.returns
         if name in non_causal(result.env_id)
     ]

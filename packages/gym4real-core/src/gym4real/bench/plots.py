@@ -2,7 +2,8 @@
 
 Both plot the protocol's objective (the score; the return where the protocol names none), the policies
 best first by its IQM (:meth:`~gym4real.bench.benchmark.BenchmarkResult.ranking`), and their titles say
-which episodes they show. Policies are drawn by their short labels; each line has its own line style and
+which episodes they show. Policies are drawn by their short labels (an upper reference with its kind:
+``hindsight (upper reference, exact)``); each line has its own line style and
 marker, the markers at staggered steps so that lines which coincide stay visible, and a policy whose mean
 curve hides an earlier one's says so in the legend (``p79 (overlaps p78)``).
 """
@@ -15,6 +16,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from gym4real.bench import stats
+from gym4real.core.registry import non_causal
 
 if TYPE_CHECKING:
     from gym4real.bench.benchmark import BenchmarkResult
@@ -54,11 +56,19 @@ def overlapping(curves: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]], to
     return found
 
 
+def figure_labels(result: BenchmarkResult) -> dict[str, str]:
+    """Policy -> its label in the figures: the short label, an upper reference's with its kind."""
+    from gym4real.bench.upper_reference import label
+
+    upper = set(non_causal(result.env_id))
+    return {n: label(result.env_id, n) if n in upper else short for n, short in result.labels.items()}
+
+
 def legend_labels(
     result: BenchmarkResult, curves: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]
 ) -> dict[str, str]:
-    """Policy -> its legend entry: the short label, and ``(overlaps other)`` when its curve hides another's."""
-    labels, hidden = result.labels, overlapping(curves)
+    """Policy -> its legend entry: its figure label, and ``(overlaps other)`` when its curve hides another's."""
+    labels, hidden = figure_labels(result), overlapping(curves)
     return {n: f"{labels[n]} (overlaps {labels[hidden[n]]})" if n in hidden else labels[n] for n in curves}
 
 
@@ -107,7 +117,7 @@ def save_figures(result: BenchmarkResult, out: Path) -> list[Path]:
     plt.close(fig)
 
     fig, ax = plt.subplots(figsize=(max(7.0, 1.3 * n), 4.2))
-    labels = result.labels
+    labels = figure_labels(result)
     ranked = result.ranking()
     ax.boxplot([result.objective_values(name) for name in ranked], tick_labels=[labels[name] for name in ranked])
     ax.set(xlabel="policy (best first by IQM)", ylabel=f"episode {what}")

@@ -2,8 +2,8 @@
 
 One panel per env: each policy's IQM of the per-episode objective (a marker, always drawn, so that a
 zero-width interval stays visible) and its 95 % two-level bootstrap interval (a bar, when it has a width),
-from the section's ``summary.csv``; RL agents stand out from the baselines; every panel's axis spans every
-point and bound.
+from the section's ``summary.csv``; RL agents stand out from the baselines, an upper reference is labelled
+with its kind (exact, heuristic with its gap, not a bound); every panel's axis spans every point and bound.
 """
 
 from __future__ import annotations
@@ -37,6 +37,7 @@ def figure(panels: list[tuple[str, str, pd.DataFrame]]) -> Any:
     from matplotlib.ticker import FuncFormatter
 
     from gym4real.bench.numbers import human
+    from gym4real.bench.upper_reference import label
 
     heights = [0.5 + 0.32 * len(s) for _, _, s in panels]
     fig, axes = plt.subplots(
@@ -56,7 +57,9 @@ def figure(panels: list[tuple[str, str, pd.DataFrame]]) -> Any:
             if row["high"] > row["low"]:
                 ax.hlines(pos, row["low"], row["high"], color=colour, lw=2.2 if agent else 1.6)
             ax.plot(row["iqm"], pos, "D" if agent else "o", color=colour, ms=7 if agent else 5, zorder=3)
-        labels = [f"{n} (agent)" if k == "agent" else n for n, k in zip(names, summary["kind"], strict=True)]
+        labels = [
+            f"{n} (agent)" if k == "agent" else label(env_id, n) for n, k in zip(names, summary["kind"], strict=True)
+        ]
         ax.set_yticks(y, labels)
         ax.set_ylim(-0.7, len(names) - 0.3)
         ax.set_xlim(*limits(summary))
