@@ -18,6 +18,10 @@ import pandas as pd
 FILE = "summary.png"
 #: The fraction of a panel's span left free on either side.
 PAD = 0.06
+#: The longest y label the figure's 8 inches hold beside each panel's title; each character more widens it.
+LABEL_CHARS = 20
+#: Inches the figure widens per character of its longest y label beyond :data:`LABEL_CHARS`.
+LABEL_INCH = 0.075
 
 
 def limits(summary: pd.DataFrame) -> tuple[float, float]:
@@ -26,6 +30,14 @@ def limits(summary: pd.DataFrame) -> tuple[float, float]:
     lo, hi = float(values.min()), float(values.max())
     span = hi - lo if hi > lo else max(1.0, abs(lo)) * 0.1
     return lo - PAD * span, hi + PAD * span
+
+
+def _labels(env_id: str, summary: pd.DataFrame) -> list[str]:
+    """The y labels of a panel: each policy, an agent marked, an upper reference with its kind."""
+    from gym4real.bench.upper_reference import label
+
+    kinds = zip(summary["policy"], summary["kind"], strict=True)
+    return [f"{name} (agent)" if kind == "agent" else label(env_id, name) for name, kind in kinds]
 
 
 def figure(panels: list[tuple[str, str, pd.DataFrame]]) -> Any:
@@ -37,31 +49,28 @@ def figure(panels: list[tuple[str, str, pd.DataFrame]]) -> Any:
     from matplotlib.ticker import FuncFormatter
 
     from gym4real.bench.numbers import human
-    from gym4real.bench.upper_reference import label
 
     heights = [0.5 + 0.32 * len(s) for _, _, s in panels]
+    names = {env_id: _labels(env_id, s) for env_id, _, s in panels}
+    longest = max(len(label) for labels in names.values() for label in labels)
     fig, axes = plt.subplots(
         len(panels),
         1,
-        figsize=(8.0, 0.9 + sum(heights)),
+        figsize=(8.0 + LABEL_INCH * max(0, longest - LABEL_CHARS), 0.9 + sum(heights)),
         squeeze=False,
         gridspec_kw={"height_ratios": heights},
         layout="constrained",
     )
     for ax, (env_id, objective, summary) in zip(axes[:, 0], panels, strict=True):
-        names = summary["policy"].tolist()
-        y = np.arange(len(names))[::-1]
+        y = np.arange(len(summary))[::-1]
         for row, pos in zip(summary.to_dict("records"), y, strict=True):
             agent = row["kind"] == "agent"
             colour = "C3" if agent else "0.35"
             if row["high"] > row["low"]:
                 ax.hlines(pos, row["low"], row["high"], color=colour, lw=2.2 if agent else 1.6)
             ax.plot(row["iqm"], pos, "D" if agent else "o", color=colour, ms=7 if agent else 5, zorder=3)
-        labels = [
-            f"{n} (agent)" if k == "agent" else label(env_id, n) for n, k in zip(names, summary["kind"], strict=True)
-        ]
-        ax.set_yticks(y, labels)
-        ax.set_ylim(-0.7, len(names) - 0.3)
+        ax.set_yticks(y, names[env_id])
+        ax.set_ylim(-0.7, len(summary) - 0.3)
         ax.set_xlim(*limits(summary))
         ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: human(v)))
         ax.grid(axis="x", alpha=0.3)
