@@ -40,7 +40,7 @@ import pandas as pd
 
 import gym4real
 import gym4real.core.registry
-from gym4real.core.registry import MARK, non_causal, registry
+from gym4real.core.registry import MARK, non_causal, registry, upper_reference
 from gym4real.core.specs import FLAGS
 
 DOCS = Path(__file__).resolve().parent
@@ -132,8 +132,12 @@ def page(env_id: str, figures: Path | None, gif: tuple[Path, str, int] | None = 
     ]
     baselines = reg.baselines.get(env_id, {})
     lines += ["## Baselines", "", "| name | description |", "|---|---|"]
-    upper = f" (**{MARK}**: see [How far from optimal?](../headroom.md))"
-    lines += [f"| `{b.name}` | {b.description}{'' if b.causal else upper} |" for b in baselines.values()]
+    lines += [
+        f"| `{b.name}` | {b.description}"
+        + ("" if b.causal else f" (**{MARK}**, {b.bound_words()}: see [How far from optimal?](../headroom.md))")
+        + " |"
+        for b in baselines.values()
+    ]
     bench = reg.benchmarks.get(env_id)
     if bench:
         lines += [
@@ -257,12 +261,18 @@ def headroom_section(env_id: str, figures: Path | None) -> list[str]:
         return []
     rule = [b for b in bench.rule_based if b not in upper]
     command = f"gym4real bench {env_id} --policies {','.join([*upper, *rule])}"
+    kinds = {u: upper_reference(env_id, u) for u in upper}
+    said = "; ".join(
+        f"`{u}` is **{spec.bound_words()}**: {spec.bound_note}"
+        + (", so it bounds what a controller can score here" if spec.is_bound else ", so it bounds nothing")
+        for u, spec in kinds.items()
+    )
     lines = [
         "",
         "## Headroom",
         "",
-        f"{', '.join(f'`{u}`' for u in upper)}: the {MARK}, which knows what no agent can know in advance; it bounds "
-        f"what a controller can score here (see [How far from optimal?](../headroom.md)). `{command}` measures it.",
+        f"{', '.join(f'`{u}`' for u in upper)}: the {MARK}, which knows what no agent can know in advance. {said} "
+        f"(see [How far from optimal?](../headroom.md)). `{command}` measures it.",
     ]
     summary = figures / env_id.replace("/", "_") / "summary.csv" if figures else None
     if summary is not None and summary.is_file():

@@ -57,7 +57,7 @@ def test_the_best_rule_scores_exactly_one_random_zero_and_itself_one_half(refere
     same, rnd = score["agents"]["same"], score["agents"]["rnd"]
     assert same["aggregate"]["iqm"] == 1.0 and same["envs"][ENV]["normalized_iqm"] == 1.0
     assert rnd["aggregate"]["iqm"] == 0.0 and rnd["envs"][ENV]["normalized_iqm"] == 0.0
-    assert same["aggregate"]["optimality_gap"] == 0.0 and rnd["aggregate"]["optimality_gap"] == 1.0
+    assert same["aggregate"]["shortfall"] == 0.0 and rnd["aggregate"]["shortfall"] == 1.0
     assert same["envs"][ENV]["probability_of_improvement"]["longest_first"] == 0.5
     assert set(same["envs"][ENV]["probability_of_improvement"]) == {"qlearning", "longest_first"}
     # the reference agent's own suite score: IQM over its seeds of each seed's normalised IQM
@@ -130,12 +130,12 @@ def test_a_user_module_factory_per_seed_from_the_cli_with_the_shipped_references
     score = json.loads((out / "score.json").read_text())
     assert score["envs"][ENV]["seeds"] == 2 and score["aggregate"]["runs"] == 2
     assert score["scales"][ENV]["best_rule_based"] == "longest_first"
-    # seed 0 is the best rule (1), seed 7 the other rule (below 1): the optimality gap is seed 7's shortfall / 2
+    # seed 0 is the best rule (1), seed 7 the other rule (below 1): the shortfall below the best rule is seed 7's / 2
     runs = pd.read_csv(out / "episodes.csv")
     mine = runs[runs["policy"] == "mine"]
     assert set(mine["seed"]) == {0, 7} and len(mine) == 2 * 30
     shortfall = 1 - sps.trim_mean(mine[mine["seed"] == 7]["normalized"], 0.25)
-    assert score["aggregate"]["optimality_gap"] == pytest.approx(shortfall / 2)
+    assert score["aggregate"]["shortfall"] == pytest.approx(shortfall / 2)
     assert {"aggregate_intervals.png", "performance_profile.png", "report.md", "agent_episodes.csv"} <= {
         p.name for p in out.iterdir()
     }
@@ -208,7 +208,7 @@ def test_the_tutorial_trains_a2c_on_two_envs_and_reads_its_score(
     # trading's anchors are not told apart (its scale is noise): the suite score is wds's alone
     assert score["envs"]["gym4real/trading-v0"]["scale"]["separated"] is False
     assert aggregate["envs"] == ["gym4real/wds-v0"] and aggregate["runs"] == 1
-    assert aggregate["low"] <= aggregate["iqm"] <= aggregate["high"] and np.isfinite(aggregate["optimality_gap"])
+    assert aggregate["low"] <= aggregate["iqm"] <= aggregate["high"] and np.isfinite(aggregate["shortfall"])
     for env_id in tutorial.TRAINING:
         assert score["envs"][env_id]["seeds"] == 1 and (tmp_path / "models" / env_id.split("/")[1] / "seed0").is_dir()
     assert json.loads((tmp_path / "score" / "score.json").read_text())["aggregate"] == aggregate
@@ -310,12 +310,12 @@ def test_the_aggregate_figure_draws_a_point_interval_as_the_agents_marker_inside
     from gym4real.bench.evaluate_report import AGENT_COLOUR, aggregate_figure
 
     point = {"iqm": -0.286, "low": -0.286, "high": -0.286}  # a zero-width interval, below every other bound
-    point.update(optimality_gap=1.286, optimality_gap_low=1.286, optimality_gap_high=1.286)
-    wide = {"iqm": 0.7, "low": 0.629, "high": 0.7, "optimality_gap": 0.3, "optimality_gap_low": 0.3}
-    wide["optimality_gap_high"] = 0.371
+    point.update(shortfall=1.286, shortfall_low=1.286, shortfall_high=1.286)
+    wide = {"iqm": 0.7, "low": 0.629, "high": 0.7, "shortfall": 0.3, "shortfall_low": 0.3}
+    wide["shortfall_high"] = 0.371
     fig = aggregate_figure({"mine": point, "a2c": wide}, ["mine"])
     fig.canvas.draw()
-    for ax, key in zip(fig.axes, ("iqm", "optimality_gap"), strict=True):
+    for ax, key in zip(fig.axes, ("iqm", "shortfall"), strict=True):
         markers = [
             line for line in ax.get_lines() if isinstance(line, Line2D) and line.get_marker() not in ("None", None, "")
         ]
@@ -328,7 +328,7 @@ def test_the_aggregate_figure_draws_a_point_interval_as_the_agents_marker_inside
         shown = ax.transData.transform((x, y))
         box = ax.get_window_extent()
         assert box.x0 < shown[0] < box.x1 and box.y0 < shown[1] < box.y1
-        bounds = ("low", "high") if key == "iqm" else ("optimality_gap_low", "optimality_gap_high")
+        bounds = ("low", "high") if key == "iqm" else ("shortfall_low", "shortfall_high")
         every = [row[k] for row in (point, wide) for k in (key, *bounds)]
         assert all(min(left, right) < v < max(left, right) for v in every)  # axes that include every point
     labels = [t.get_text() for t in fig.axes[0].get_yticklabels()]

@@ -123,3 +123,50 @@ def test_t_band_is_the_student_interval_of_the_seed_mean_and_none_where_one_seed
     np.testing.assert_allclose(high[:2] - mean[:2], half)
     np.testing.assert_allclose(mean[:2] - low[:2], half)
     assert mean[2] == 3.0 and np.isnan(low[2]) and np.isnan(high[2])  # no band from one seed
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"causal": False}, "declare `bound`"),
+        ({"causal": False, "bound": "optimal", "bound_note": "n"}, "declare `bound`"),
+        ({"causal": False, "bound": "exact"}, "`bound_note`"),
+        ({"causal": False, "bound": "heuristic", "bound_note": "n"}, "needs `gap`"),
+        ({"causal": False, "bound": "heuristic", "gap": float("nan"), "bound_note": "n"}, "needs `gap`"),
+        ({"causal": False, "bound": "heuristic", "gap": -0.1, "bound_note": "n"}, "needs `gap`"),
+        ({"causal": False, "bound": "exact", "gap": 0.01, "bound_note": "n"}, "for a `heuristic` bound only"),
+        ({"bound": "exact", "bound_note": "n"}, "is causal"),
+    ],
+)
+def test_an_upper_reference_declares_its_kind_of_bound(kwargs: dict, match: str) -> None:
+    with pytest.raises(ValueError, match=match):
+        BaselineSpec("gym4real/demo-v0", "hindsight", "m:f", **kwargs)
+
+
+def test_the_kinds_of_bound_in_words() -> None:
+    heuristic = BaselineSpec(
+        "gym4real/demo-v0", "h", "m:f", causal=False, bound="heuristic", gap=0.0004, bound_note="n"
+    )
+    assert heuristic.is_bound and heuristic.bound_words() == "heuristic (a further search gains <= 0.04 %)"
+    oracle = BaselineSpec("gym4real/demo-v0", "o", "m:f", causal=False, bound="not a bound", bound_note="n")
+    assert not oracle.is_bound and oracle.bound_words() == "not a bound"
+
+
+def test_an_interval_takes_more_replicates_the_higher_its_level() -> None:
+    """The replicates beyond each end stay :data:`stats.TAIL` however far out the level puts the end."""
+    assert stats.replicates_at(0.5) == stats.REPS  # never fewer than REPS
+    for level in (0.95, 1 - 0.05 / 4, 1 - 0.05 / 18):
+        reps = stats.replicates_at(level)
+        assert reps * (1 - level) / 2 == pytest.approx(stats.TAIL, abs=1)
+    assert stats.replicates_at(1 - 0.05 / 18) > 10 * stats.replicates_at(0.95)
+    with pytest.raises(ValueError, match="level"):
+        stats.replicates_at(1.0)
+
+
+def test_the_sorted_iqm_is_scipys_trimmed_mean() -> None:
+    from scipy import stats as sps
+
+    rng = np.random.default_rng(3)
+    for n in (1, 2, 3, 4, 7, 150):
+        x = rng.normal(size=(50, n))
+        assert np.allclose(stats.iqm_last(x), sps.trim_mean(x, 0.25, axis=1), rtol=1e-14, atol=1e-15), n

@@ -127,9 +127,9 @@ def test_a_run_identical_to_an_anchor_scores_it_exactly() -> None:
     assert suite_score.run_scores(random, scale).tolist() == [0.0]
 
 
-def test_optimality_gap_is_the_mean_shortfall_below_one() -> None:
+def test_the_shortfall_below_the_best_rule_is_the_mean_shortfall_below_one() -> None:
     runs = np.array([[0.5, 1.5, 0.0, 1.0]])
-    assert suite_score.optimality_gap_of_rows(runs).tolist() == [(0.5 + 0 + 1 + 0) / 4]
+    assert suite_score.shortfall_of_rows(runs).tolist() == [(0.5 + 0 + 1 + 0) / 4]
 
 
 def test_suite_profile_counts_runs_above_each_threshold() -> None:

@@ -4,6 +4,7 @@ import json
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 
 import gym4real
@@ -75,8 +76,40 @@ def test_evaluate_reports_the_agents_shortfall_from_hindsight(tmp_path: Path) ->
     assert room["low"] <= room["shortfall"] <= room["high"]
     assert room["shortfall"] > 0  # the exact optimum beats staying flat on the test days
     assert result.scale.best != "hindsight"
-    assert "shortfall of mine from hindsight" in evaluation.table()
-    assert "shortfall from the upper reference" in (tmp_path / "out" / "report.md").read_text()
+    record = evaluation.record("mine")["envs"][TRADING]
+    assert record["upper_references"]["hindsight"]["bound"] == "exact"
+    closed = record["headroom_closed"]["hindsight"]
+    random = stats.iqm(result.scores["random"])
+    assert closed["share"] == pytest.approx((stats.iqm(mine) - random) / (stats.iqm(upper) - random))
+    table = evaluation.table()
+    assert "shortfall of mine from hindsight (non-causal upper reference, exact)" in table
+    assert f"share of the headroom closed {closed['share']:.3f}" in table
+    report = (tmp_path / "out" / "report.md").read_text()
+    assert "shortfall from the upper reference" in report and "share of the headroom closed" in report
+    assert "Upper reference `hindsight`: **exact**" in report
+
+
+def test_evaluate_measures_no_headroom_to_an_upper_reference_that_is_not_a_bound() -> None:
+    from gym4real.bench.evaluate import EnvResult
+
+    rng = np.random.default_rng(1)
+    scores = {
+        "random": rng.normal(0, 1, (1, 20)),
+        "oracle": rng.normal(1, 1, (1, 20)),
+        "mine": rng.normal(2, 1, (2, 20)),
+    }
+    result = EnvResult(
+        "gym4real/robofeeder-planning-v0",
+        suite_score.scale("gym4real/robofeeder-planning-v0", {"random": scores["random"]}, ()),
+        scores,
+        {"random": "baseline", "oracle": "upper", "mine": "agent"},
+        {"random": [], "oracle": [], "mine": [0, 1]},
+        pd.DataFrame(),
+        "none",
+    )
+    record = result.record("mine")
+    assert record["upper_references"]["oracle"]["bound"] == "not a bound"
+    assert record["headroom"] == {} and record["headroom_closed"] == {}
 
 
 def test_headroom_is_the_iqm_difference_with_a_paired_interval() -> None:
@@ -110,3 +143,48 @@ def test_evaluate_without_headroom_runs_no_upper_reference(tmp_path: Path) -> No
     evaluation = gym4real.evaluate({"mine": "flat"}, [TRADING], references=tmp_path, headroom=False)
     assert "hindsight" not in evaluation.envs[TRADING].scores
     assert evaluation.record("mine")["envs"][TRADING]["headroom"] == {}
+
+
+def test_every_upper_reference_declares_its_kind_and_the_oracles_are_not_bounds() -> None:
+    from gym4real.bench.upper_reference import bound_references
+    from gym4real.core.registry import upper_reference
+
+    kinds = {
+        (env_id, name): upper_reference(env_id, name).bound
+        for env_id in registry().benchmarks
+        for name in non_causal(env_id)
+    }
+    assert kinds[TRADING, "hindsight"] == kinds["gym4real/elevator-v0", "hindsight"] == "exact"
+    assert {kinds[f"gym4real/{d}-v0", "hindsight"] for d in ("dam", "microgrid", "wds")} == {"heuristic"}
+    oracles = {k for k in kinds if k[1] == "oracle"}
+    assert len(oracles) == 3 and {kinds[k] for k in oracles} == {"not a bound"}
+    assert bound_references("gym4real/robofeeder-planning-v0") == [] and bound_references(TRADING) == ["hindsight"]
+    with pytest.raises(ConfigError, match="not a non-causal upper reference"):
+        upper_reference(TRADING, "buy_and_hold")
+
+
+def test_the_share_of_the_headroom_closed_runs_from_random_to_the_upper_reference() -> None:
+    from gym4real.bench.upper_reference import headroom_closed
+
+    rng = np.random.default_rng(0)
+    random = rng.normal(0.0, 1.0, size=(1, 30))
+    upper = random + 10.0  # the same episodes, 10 above everywhere
+    halfway = random + 5.0 + rng.normal(0.0, 0.1, size=(4, 30))
+    assert headroom_closed(upper, random, random, False)["share"] == 0.0
+    assert headroom_closed(upper, random, upper, False)["share"] == 1.0
+    found = headroom_closed(upper, random, halfway)
+    assert found["share"] == pytest.approx(0.5, abs=0.02) and found["low"] <= found["share"] <= found["high"]
+    assert found["high"] - found["low"] < 0.05  # the episodes are paired: their spread cancels
+    with pytest.raises(ConfigError, match="no headroom"):
+        headroom_closed(random, upper, halfway)
+    with pytest.raises(ConfigError, match="same test episodes"):
+        headroom_closed(upper[:, :10], random, halfway)
+
+
+def test_figures_name_an_upper_reference_with_its_kind() -> None:
+    from gym4real.bench.upper_reference import label
+
+    assert label(TRADING, "hindsight") == "hindsight (non-causal upper reference, exact)"
+    assert label("gym4real/robofeeder-planning-v0", "oracle") == "oracle (non-causal upper reference, not a bound)"
+    assert label("gym4real/wds-v0", "hindsight").startswith("hindsight (non-causal upper reference, heuristic, gap ")
+    assert label(TRADING, "buy_and_hold") == "buy_and_hold"

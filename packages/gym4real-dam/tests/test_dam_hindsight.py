@@ -14,6 +14,7 @@ import gym4real
 from gym4real.bench import mo_metrics, stats
 from gym4real.bench.upper_reference import PlanCache
 from gym4real.core.errors import ConfigError
+from gym4real.core.registry import registry
 from gym4real.dam.hindsight import DamHindsight, weighted_hindsight
 
 pytest.importorskip("numba")
@@ -62,15 +63,30 @@ def test_the_plan_is_at_least_the_best_of_a_fine_brute_force_over_three_days(yea
 
 
 @pytest.mark.slow
-def test_the_grid_is_fine_enough_on_a_test_year() -> None:
-    """Halving the default grid spacing (2.5 mm -> 1.25 mm) changes a year's replayed objective by at most
-    0.6 %: 2010, the test year of the largest change measured (0.55 %; the 13-year IQM moves by less than
-    0.5 %: 0.16 %, docs/headroom.md)."""
+def test_a_further_search_gains_less_than_the_declared_gap_on_the_hardest_test_year() -> None:
+    """2010, where the DP's plan was furthest from the best (the local search gains 1.4 %; a random search over the
+    DP's releases found 1.05 %, issue 44): transfers up to 30 days apart and changes down to 1/256 of a grid
+    quantum, through the env's days, gain less than the gap ``hindsight`` declares (docs/headroom.md)."""
+    from gym4real.dam import hindsight_kernel
+    from gym4real.dam.hindsight import STEP
+    from gym4real.dam.lake import SECONDS_PER_DAY
+
     env = gym.make(ENV, preset="test")
-    options = {"year": 2010}
-    coarse = _replay(env, DamHindsight(env, cache=False), options)
-    fine = _replay(env, DamHindsight(env, step=0.00125, cache=False), options)
-    assert abs(coarse - fine) <= 0.006 * abs(fine)
+    env.reset(options={"year": 2010})
+    policy = DamHindsight(env, cache=False)
+    plan = np.array(policy.plan())
+    assert policy.forward_objectives[-1] >= policy.dp_objectives[-1] + 0.01 * abs(policy.dp_objectives[-1])
+    c = policy._constants()
+    exogenous, (a_low, a_high) = c["exogenous"], c["box"]
+    low, high = np.minimum(np.maximum(exogenous[:, 2], a_low), a_high), np.full(len(exogenous), a_high)
+    quantum = policy.env.lake.surface * STEP / SECONDS_PER_DAY
+    hindsight_kernel.improve(
+        plan, c["storage"], exogenous, c["lake"], c["evaporates"], c["substeps"], c["costs"], low, high,
+        quantum * 2.0 ** -np.arange(-4, 9), 30, 1e-7,
+    )  # fmt: skip
+    further = policy._forward(c, [float(d) for d in plan])
+    gap = registry().baselines[ENV]["hindsight"].gap
+    assert gap is not None and further - policy.forward_objectives[-1] <= gap * abs(policy.forward_objectives[-1])
 
 
 def test_the_replay_scores_what_the_forward_pass_planned_and_the_estimate_is_close() -> None:
@@ -80,6 +96,11 @@ def test_the_replay_scores_what_the_forward_pass_planned_and_the_estimate_is_clo
     assert policy.forward_objectives[-1] == pytest.approx(replayed, rel=1e-9)
     # the programme's own estimate interpolates on the grid: close to, not equal to, the replayed score
     assert policy.planned_objectives[-1] == pytest.approx(replayed, rel=0.01)
+    # the local search improved the DP's plan; without it the DP's plan is played
+    assert policy.forward_objectives[-1] > policy.dp_objectives[-1]
+    dp_only = DamHindsight(env, cache=False, search=False)
+    assert _replay(env, dp_only, {"year": 1970}) == pytest.approx(policy.dp_objectives[-1], rel=1e-9)
+    assert dp_only.forward_objectives == dp_only.dp_objectives
 
 
 def test_plans_are_cached_by_their_inputs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -94,6 +115,10 @@ def test_plans_are_cached_by_their_inputs(tmp_path: Path, monkeypatch: pytest.Mo
     assert _replay(env, second, {"year": 1951}) == a
     with pytest.raises(TypeError):  # another start level is another plan: not in the cache
         _replay(env, second, {"year": 1951, "init_level": 0.5})
+    dp_only = DamHindsight(env, search=False)
+    dp_only._solve = None  # type: ignore[assignment,method-assign]
+    with pytest.raises(TypeError):  # the DP's plan without the search is another plan: not the searched one
+        _replay(env, dp_only, {"year": 1951})
 
 
 def test_hindsight_is_registered_non_causal() -> None:

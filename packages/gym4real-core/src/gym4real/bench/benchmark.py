@@ -31,7 +31,16 @@ from gym4real.bench.agent_errors import EpisodeTimeout, action_failure, agent_la
 from gym4real.bench.policies import check_policy, make_policy
 from gym4real.bench.progress import ProgressDisplay
 from gym4real.core.errors import ActionError, ConfigError
-from gym4real.core.registry import MARK, base_env, baseline_names, env_spec, load_object, non_causal, registry
+from gym4real.core.registry import (
+    MARK,
+    base_env,
+    baseline_names,
+    env_spec,
+    load_object,
+    non_causal,
+    registry,
+    upper_reference,
+)
 from gym4real.core.specs import BenchmarkSpec
 from gym4real.wrappers.multi_objective import MultiObjective
 
@@ -281,7 +290,8 @@ def _seeds_text(seeds: Sequence[Any]) -> str:
 def _planned_notes(result: BenchmarkResult) -> list[str]:
     """Per planner (an upper reference): its planned objective beside the replayed one, and what it is."""
     notes = [
-        f"{result.labels[name]}: {MARK}, knows what no agent can know in advance (not a baseline to beat)"
+        f"{result.labels[name]}: {MARK} ({upper_reference(result.env_id, name).bound_words()}), knows what no agent "
+        "can know in advance (not a baseline to beat)"
         for name in result.returns
         if name in non_causal(result.env_id)
     ]

@@ -8,9 +8,12 @@ lack, or all of them when the domain ships none, are run here.
 
 Per environment: the IQM of the per-episode objective with its seed-level interval, the same on the
 suite's normalised scale, the probability of improvement over each reference agent and over the best
-rule-based baseline, and where the agent's IQM sits in each reference policy's scores. Over the suite:
-the IQM of the normalised runs with a stratified bootstrap, the optimality gap and the performance
-profile (:mod:`gym4real.bench.suite_score`), for the agent and for each reference agent.
+rule-based baseline, where the agent's IQM sits in each reference policy's scores, and for each upper
+reference its kind (exact, heuristic with its measured gap, or not a bound) and, for a bound, the agent's
+shortfall from it and the share of the headroom it closed (:mod:`gym4real.bench.upper_reference`). Over the
+suite: the IQM of the normalised runs with a stratified bootstrap, the shortfall below the best rule, each
+env's normalised score and the performance profile (:mod:`gym4real.bench.suite_score`), for the agent and
+for each reference agent.
 """
 
 from __future__ import annotations
@@ -96,8 +99,14 @@ class EnvResult:
         entry["profile_position"] = {
             p: float(np.mean(self.scores[p] > iqm)) for p, kind in self.kinds.items() if kind != "agent"
         }
-        entry["headroom"] = {
-            p: upper_reference.headroom(self.scores[p], matrix) for p, kind in self.kinds.items() if kind == "upper"
+        uppers = [p for p, kind in self.kinds.items() if kind == "upper"]
+        entry["upper_references"] = {p: _kind(self.env_id, p) for p in uppers}
+        bounds = [p for p in uppers if p in upper_reference.bound_references(self.env_id)]
+        entry["headroom"] = {p: upper_reference.headroom(self.scores[p], matrix) for p in bounds}
+        entry["headroom_closed"] = {
+            p: upper_reference.headroom_closed(self.scores[p], self.scores[suite_score.ZERO], matrix)
+            for p in bounds
+            if suite_score.ZERO in self.scores and stats.iqm(self.scores[p]) > stats.iqm(self.scores[suite_score.ZERO])
         }
         return entry
 
@@ -119,7 +128,7 @@ class Evaluation:
         return {e: (r.scores[policy], r.scale) for e, r in self.envs.items() if r.scale.usable and policy in r.scores}
 
     def aggregate(self, policy: str) -> dict[str, Any]:
-        """The policy's suite score: IQM, optimality gap and their stratified-bootstrap intervals (computed once)."""
+        """The policy's suite score: IQM, shortfall below the best rule, their intervals, per env (computed once)."""
         if policy not in self._aggregates:
             self._aggregates[policy] = suite_score.summary(self.runs(policy))
         return self._aggregates[policy]
@@ -179,15 +188,27 @@ class Evaluation:
                 for other, p in rec["probability_of_improvement"].items():
                     p_low, p_high = rec["probability_of_improvement_ci"][other]
                     lines.append(f"   P({agent} > {other}) = {p:.3f} [{p_low:.3f}, {p_high:.3f}]")
-                for upper, room in rec["headroom"].items():
-                    lines.append(
-                        f"   shortfall of {agent} from {upper} ({MARK}): IQM {room['shortfall']:.5g} "
+                for upper, kind in rec["upper_references"].items():
+                    if upper not in rec["headroom"]:
+                        lines.append(f"   {upper} ({MARK}): {kind['words']}: no headroom is measured to it")
+                        continue
+                    room = rec["headroom"][upper]
+                    line = (
+                        f"   shortfall of {agent} from {upper} ({MARK}, {kind['words']}): IQM {room['shortfall']:.5g} "
                         f"[{room['low']:.5g}, {room['high']:.5g}]"
                     )
+                    closed = rec["headroom_closed"].get(upper)
+                    if closed is not None:
+                        line += (
+                            f"; share of the headroom closed {closed['share']:.3f} "
+                            f"[{closed['low']:.3f}, {closed['high']:.3f}] (0 = random, 1 = {upper})"
+                        )
+                    lines.append(line)
             lines.append("")
         lines.append("== suite score (normalised: 0 = random, 1 = best rule-based baseline; IQM over envs x seeds)")
         lines.append(
-            f"   {'policy':24s} {'kind':9s} {'envs':>4s} {'runs':>4s} {'IQM [95% CI]':>26s} {'optimality gap':>26s}"
+            f"   {'policy':24s} {'kind':9s} {'envs':>4s} {'runs':>4s} {'IQM [95% CI]':>26s} "
+            f"{'shortfall below best rule':>26s}  per env"
         )
         for policy in [*self.agents, *self.references()]:
             agg = self.aggregate(policy)
@@ -196,11 +217,15 @@ class Evaluation:
                 lines.append(f"   {policy:24s} {kind:9s} no environment with a normalised scale")
                 continue
             value = f"{agg['iqm']:.3f} [{agg['low']:.3f}, {agg['high']:.3f}]"
-            gap = f"{agg['optimality_gap']:.3f} [{agg['optimality_gap_low']:.3f}, {agg['optimality_gap_high']:.3f}]"
-            lines.append(f"   {policy:24s} {kind:9s} {len(agg['envs']):>4d} {agg['runs']:>4d} {value:>26s} {gap:>26s}")
+            gap = f"{agg['shortfall']:.3f} [{agg['shortfall_low']:.3f}, {agg['shortfall_high']:.3f}]"
+            per_env = ", ".join(f"{slug(e)} {v:.3f}" for e, v in agg["per_env"].items())
+            lines.append(
+                f"   {policy:24s} {kind:9s} {len(agg['envs']):>4d} {agg['runs']:>4d} {value:>26s} {gap:>26s}  {per_env}"
+            )
         lines.append(
             "   intervals: 95 % stratified bootstrap, seeds and test episodes resampled within each env; an env whose "
-            "anchors are not separated is left out"
+            "anchors are not separated is left out; policies on different envs average different envs: compare "
+            "them per env"
         )
         return "\n".join(lines)
 
@@ -239,6 +264,14 @@ class Evaluation:
         written += evaluate_report.figures(self, out)
         written.append(evaluate_report.write_report(self, out, [p.name for p in written[3:]]))
         return written
+
+
+def _kind(env_id: str, name: str) -> dict[str, Any]:
+    """An upper reference's kind for ``score.json``: ``bound`` (exact, heuristic, not a bound), ``gap``, words, note."""
+    from gym4real.core.registry import upper_reference as spec_of
+
+    spec = spec_of(env_id, name)
+    return {"bound": spec.bound, "gap": spec.gap, "words": spec.bound_words(), "note": spec.bound_note}
 
 
 def _finite(value: float) -> float | None:

@@ -4,7 +4,8 @@ Both plot the protocol's objective (the score; the return where the protocol nam
 best first by its IQM (:meth:`~gym4real.bench.benchmark.BenchmarkResult.ranking`), and their titles say
 which episodes they show. A non-causal upper reference (``hindsight``, ``oracle``:
 :func:`~gym4real.core.registry.non_causal`) is never ranked among them: it comes last, drawn in black with
-its own marker (:data:`UPPER_MARKER`) and labelled ``hindsight (non-causal upper reference)``.
+its own marker (:data:`UPPER_MARKER`) and labelled with its kind
+(``hindsight (non-causal upper reference, exact)``: :func:`~gym4real.bench.upper_reference.label`).
 
 Policies are drawn by their short labels; each line has its own line style and
 marker, the markers at staggered steps so that lines which coincide stay visible, and a policy whose mean
@@ -19,7 +20,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from gym4real.bench import stats
-from gym4real.core.registry import MARK, non_causal
+from gym4real.core.registry import non_causal
 
 if TYPE_CHECKING:
     from gym4real.bench.benchmark import BenchmarkResult
@@ -76,16 +77,20 @@ def overlapping(curves: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]], to
     return found
 
 
+def figure_labels(result: BenchmarkResult) -> dict[str, str]:
+    """Policy -> its label in the figures: the short label, an upper reference's with its kind."""
+    from gym4real.bench.upper_reference import label
+
+    upper = set(upper_references(result))
+    return {n: label(result.env_id, n) if n in upper else short for n, short in result.labels.items()}
+
+
 def legend_labels(
     result: BenchmarkResult, curves: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]
 ) -> dict[str, str]:
-    """Policy -> its legend entry: the short label, with ``(overlaps other)`` or ``(non-causal upper reference)``.
-
-    ``(overlaps other)`` when its curve hides another's; ``(non-causal upper reference)`` for an upper reference.
-    """
-    labels, hidden, upper = result.labels, overlapping(curves), set(upper_references(result))
-    entries = {n: f"{labels[n]} (overlaps {labels[hidden[n]]})" if n in hidden else labels[n] for n in curves}
-    return {n: f"{entry} ({MARK})" if n in upper else entry for n, entry in entries.items()}
+    """Policy -> its legend entry: its figure label, and ``(overlaps other)`` when its curve hides another's."""
+    labels, hidden = figure_labels(result), overlapping(curves)
+    return {n: f"{labels[n]} (overlaps {labels[hidden[n]]})" if n in hidden else labels[n] for n in curves}
 
 
 def save_figures(result: BenchmarkResult, out: Path) -> list[Path]:
@@ -137,9 +142,10 @@ def save_figures(result: BenchmarkResult, out: Path) -> list[Path]:
     plt.close(fig)
 
     fig, ax = plt.subplots(figsize=(max(7.0, 1.3 * n), 4.2))
-    labels = result.labels
+    labels = figure_labels(result)
     ranked = plotted_order(result)
-    ticks = [f"{labels[name]}\n({MARK})" if name in upper else labels[name] for name in ranked]
+    # an upper reference's tick: its name, then its mark and kind on lines of their own
+    ticks = [labels[n].replace(" (", "\n(", 1).replace(", ", ",\n", 1) if n in upper else labels[n] for n in ranked]
     boxes = ax.boxplot([result.objective_values(name) for name in ranked], tick_labels=ticks, patch_artist=True)
     for name, box, median in zip(ranked, boxes["boxes"], boxes["medians"], strict=True):
         box.set_facecolor("0.85" if name in upper else "white")
@@ -151,7 +157,7 @@ def save_figures(result: BenchmarkResult, out: Path) -> list[Path]:
     xlabel = "policy (best first by IQM" + ("; the non-causal upper reference last, not ranked)" if upper else ")")
     ax.set(xlabel=xlabel, ylabel=f"episode {what}")
     ax.set_title(f"{result.env_id}: episode objective per policy, {shown}")
-    if any(len(label) > 14 for label in labels.values()):
+    if any(len(labels[name]) > 14 for name in ranked if name not in upper):
         ax.tick_params(axis="x", labelrotation=20)
     fig.tight_layout()
     fig.savefig(paths[1], dpi=120)

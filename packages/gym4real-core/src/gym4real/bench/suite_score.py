@@ -34,8 +34,11 @@ seeds, as :mod:`gym4real.bench.stats` does for one environment), and recomputes 
 environments are strata, each keeping its number of runs (rliable's ``StratifiedBootstrap``, with the
 episodes as a second level). A deterministic agent, whose seeds are one policy, thus gets the width its
 test episodes give. The scale itself is fixed: its anchors are the IQMs measured on the test protocol.
-The optimality gap is the mean shortfall of the runs below 1 (how far the agent is from the best rule,
-runs above 1 counting 0); the performance profile is the fraction of runs above each score.
+The **shortfall below the best rule** is the mean shortfall of the runs below 1 (rliable's "optimality gap"
+with the best rule as its target: how far the agent is from the best rule, runs above 1 counting 0; it is not a
+distance to an optimum, which the scale does not reach: :mod:`gym4real.bench.upper_reference` measures that);
+the performance profile is the fraction of runs above each score. Agents trained on different environments
+have suite scores over different strata: compare them per environment, not by the aggregate.
 """
 
 from __future__ import annotations
@@ -48,8 +51,8 @@ import numpy as np
 
 from gym4real.bench import stats
 
-#: Bootstrap replicates of the aggregate intervals.
-REPS = 5000
+#: Bootstrap replicates of the aggregate 95 % intervals (:func:`gym4real.bench.stats.replicates_at`).
+REPS = stats.replicates_at(0.95)
 #: Thresholds of the suite's performance profile (normalised score).
 THRESHOLDS = np.linspace(-0.5, 2.0, 101)
 #: The 0-anchor of every scale.
@@ -165,12 +168,11 @@ def run_scores(scores: np.ndarray, env_scale: Scale) -> np.ndarray:
 
 def iqm_of_rows(x: np.ndarray) -> np.ndarray:
     """IQM of each row of ``(batch, runs)`` (of the last axis of any array)."""
-    result: np.ndarray = stats.scipy_stats().trim_mean(x, 0.25, axis=-1)
-    return result
+    return stats.iqm_last(x)
 
 
-def optimality_gap_of_rows(x: np.ndarray, target: float = 1.0) -> np.ndarray:
-    """Mean shortfall below ``target`` of each row of ``(batch, runs)`` (rliable's optimality gap)."""
+def shortfall_of_rows(x: np.ndarray, target: float = 1.0) -> np.ndarray:
+    """Mean shortfall below ``target`` (the best rule) of each row of ``(batch, runs)`` (rliable's optimality gap)."""
     result: np.ndarray = np.mean(np.maximum(target - x, 0.0), axis=1)
     return result
 
@@ -212,23 +214,25 @@ def aggregate(
 def summary(runs: Runs) -> dict[str, Any]:
     """An agent's suite score from its scores per environment (env id -> its matrix and the env's scale).
 
-    Returns the IQM and the optimality gap over every run, each with its stratified two-level bootstrap 95 %
-    interval (``iqm, low, high, optimality_gap, optimality_gap_low, optimality_gap_high``), the environments
-    and the number of runs; the numbers are None without any run.
+    Returns the IQM and the shortfall below the best rule over every run, each with its stratified two-level
+    bootstrap 95 % interval (``iqm, low, high, shortfall, shortfall_low, shortfall_high``), the environments,
+    the number of runs and each environment's normalised score (``per_env``: env id -> the IQM of the agent's
+    episodes there, all seeds pooled, on the env's scale); the numbers are None without any run.
     """
     if not runs:
-        return {"iqm": None, "low": None, "high": None, "optimality_gap": None, "envs": [], "runs": 0}
+        return {"iqm": None, "low": None, "high": None, "shortfall": None, "envs": [], "runs": 0, "per_env": {}}
     iqm, low, high = aggregate(runs, iqm_of_rows)
-    gap, gap_low, gap_high = aggregate(runs, optimality_gap_of_rows)
+    gap, gap_low, gap_high = aggregate(runs, shortfall_of_rows)
     return {
         "iqm": iqm,
         "low": low,
         "high": high,
-        "optimality_gap": gap,
-        "optimality_gap_low": gap_low,
-        "optimality_gap_high": gap_high,
+        "shortfall": gap,
+        "shortfall_low": gap_low,
+        "shortfall_high": gap_high,
         "envs": list(runs),
         "runs": int(sum(np.asarray(m).shape[0] for m, _ in runs.values())),
+        "per_env": {env: float(env_scale.normalise(stats.iqm(m))) for env, (m, env_scale) in runs.items()},
     }
 
 

@@ -3,8 +3,15 @@
 A domain registers its hindsight planner as a baseline with ``causal=False``
 (:class:`~gym4real.core.specs.BaselineSpec`). It plans the whole episode knowing what no agent can know
 in advance (the year's inflows, the day's prices), against the environment's own objective, and its plan
-is replayed through the environment and scored by the protocol like any policy. Its score bounds what
-a controller could achieve on the same episodes: the **headroom** is how far an agent is from it.
+is replayed through the environment and scored by the protocol like any policy.
+
+**Kinds.** Where it is declared, each upper reference says what kind it is (``BaselineSpec.bound``,
+:data:`gym4real.core.specs.BOUNDS`): ``exact`` (proven optimal: no controller scores more on an episode),
+``heuristic`` (a plan with a measured ``gap``: the most a further search found beyond it on a test episode)
+or ``not a bound`` (it reads privileged information but a controller can score more). Only a bound has a
+**headroom** (:func:`headroom`: how far an agent is from it) and a **share of the headroom closed**
+(:func:`headroom_closed`: ``(agent - random) / (upper - random)``); tables and figures name the kind
+(:func:`label`).
 
 Because it reads the future, an upper reference is never a baseline an agent is compared with on equal
 terms: it is never the 1-anchor of the suite scale (:func:`gym4real.bench.suite_score.scale` leaves it
@@ -32,7 +39,7 @@ import numpy as np
 
 from gym4real.bench.progress import NOTICES
 from gym4real.core.errors import ConfigError
-from gym4real.core.registry import base_env, non_causal, registry
+from gym4real.core.registry import MARK, base_env, non_causal, registry, upper_reference
 
 #: The name a domain gives its hindsight planner.
 HINDSIGHT = "hindsight"
@@ -104,6 +111,70 @@ def headroom(upper: np.ndarray, agent: np.ndarray, agent_trained: bool = True) -
         "low": low,
         "high": high,
     }
+
+
+def bound_references(env_id: str) -> list[str]:
+    """The upper references of an environment that bound what a controller can score (``exact``, ``heuristic``)."""
+    return [name for name in non_causal(env_id) if upper_reference(env_id, name).is_bound]
+
+
+def label(env_id: str, name: str) -> str:
+    """A policy's name in figures: an upper reference's with its mark and kind.
+
+    For example ``hindsight (non-causal upper reference, exact)``.
+    """
+    if name not in non_causal(env_id):
+        return name
+    spec = upper_reference(env_id, name)
+    kind = (
+        f"heuristic, gap {100 * spec.gap:.2g} %" if spec.bound == "heuristic" and spec.gap is not None else spec.bound
+    )
+    return f"{name} ({MARK}, {kind})"
+
+
+def headroom_closed(
+    upper: np.ndarray, random: np.ndarray, agent: np.ndarray, agent_trained: bool = True
+) -> dict[str, float]:
+    """The share of the headroom an agent closed: ``(IQM agent - IQM random) / (IQM upper - IQM random)``.
+
+    0 is the ``random`` baseline, 1 the upper reference (a bound): the scale of the suite score
+    (:mod:`gym4real.bench.suite_score`), with the optimum in place of the best rule.
+
+    Args:
+        upper: The upper reference's per-episode objective, ``(episodes,)`` or ``(1, episodes)``.
+        random: The ``random`` baseline's, the same shape.
+        agent: The agent's ``(seeds, episodes)``.
+        agent_trained: Whether the agent's rows are training seeds (resampled), not a baseline's one row.
+
+    Returns:
+        ``share`` with its 95 % two-level bootstrap interval (``low``, ``high``; the episodes paired across the
+        three, replicates where the upper reference does not beat ``random`` left out).
+
+    Raises:
+        ConfigError: The three do not hold the same test episodes, or the upper reference's IQM does not beat
+            ``random``'s (no headroom to close).
+    """
+    from gym4real.bench import stats
+
+    rows = [np.atleast_2d(np.asarray(m, dtype=float)) for m in (upper, random, agent)]
+    if len({m.shape[1] for m in rows}) > 1:
+        raise ConfigError(
+            f"the upper reference, random and the agent have {[m.shape[1] for m in rows]} episodes: the share of "
+            "the headroom closed needs the same test episodes"
+        )
+    top, bottom = stats.iqm(rows[0]), stats.iqm(rows[1])
+    if not top > bottom:
+        raise ConfigError(f"the upper reference's IQM {top:.6g} does not beat random's {bottom:.6g}: no headroom")
+
+    def share(u: np.ndarray, r: np.ndarray, a: np.ndarray) -> np.ndarray:
+        iqm = stats.batched("iqm")
+        room = iqm(u) - iqm(r)
+        return np.where(room > 0, (iqm(a) - iqm(r)) / np.where(room > 0, room, 1.0), np.nan)
+
+    point = float(share(*(m[None] for m in rows))[0])
+    values = stats.replicates(rows, [False, False, agent_trained], share, 0, stats.replicates_at(0.95))
+    low, high = np.nanpercentile(values, [2.5, 97.5])
+    return {"share": point, "low": float(low), "high": float(high)}
 
 
 class PlanCache:

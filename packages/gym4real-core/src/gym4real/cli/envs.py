@@ -130,12 +130,15 @@ def _listing(names: list[str] | tuple[str, ...], most: int = 8) -> str:
 
 
 def _baselines(record: dict[str, Any]) -> str:
-    """The baselines, each non-causal one marked as the upper reference it is."""
-    from gym4real.core.registry import MARK
+    """The baselines, each non-causal one marked as the upper reference it is, with its kind (exact, ...)."""
+    from gym4real.core.registry import MARK, upper_reference
 
     upper = list(record.get("non_causal", ()))
     text = _listing([b for b in record["baselines"] if b not in upper])
-    return text + "".join(f"; {b} ({MARK}: knows what no agent can know in advance)" for b in upper)
+    return text + "".join(
+        f"; {b} ({MARK}, {upper_reference(record['id'], b).bound_words()}: knows what no agent can know in advance)"
+        for b in upper
+    )
 
 
 def plain(text: str) -> str:

@@ -26,7 +26,7 @@ from typing import Any, NoReturn, cast
 import pluggy
 
 from gym4real.core import hookspecs
-from gym4real.core.errors import EnvUnavailableError, PluginLoadError
+from gym4real.core.errors import ConfigError, EnvUnavailableError, PluginLoadError
 from gym4real.core.hookspecs import PLUGIN_API_VERSION
 from gym4real.core.specs import BaselineSpec, BenchmarkSpec, DatasetSpec, EnvSpec, TrainingSpec
 from gym4real.core.suggest import did_you_mean
@@ -563,3 +563,17 @@ def non_causal(env_id: str) -> list[str]:
     """The non-causal baselines (upper references) registered for an environment, sorted."""
     specs = registry().baselines.get(base_env(env_id), {})
     return sorted(name for name, spec in specs.items() if not spec.causal)
+
+
+def upper_reference(env_id: str, name: str) -> BaselineSpec:
+    """The registered spec of a non-causal baseline of an environment (its kind of bound: ``BaselineSpec.bound``).
+
+    Raises:
+        ConfigError: ``name`` is not a non-causal baseline of the environment.
+    """
+    spec = registry().baselines.get(base_env(env_id), {}).get(name)
+    if spec is None or spec.causal:
+        raise ConfigError(
+            f"`{name}` is not a non-causal upper reference of `{env_id}`; those registered: {non_causal(env_id)}"
+        )
+    return spec

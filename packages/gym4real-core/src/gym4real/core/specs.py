@@ -99,6 +99,16 @@ class DatasetSpec:
         _check(not self.path.startswith("/") and ".." not in self.path, f"dataset `{self.name}`: path must be relative")
 
 
+#: The kinds of upper reference (:attr:`BaselineSpec.bound`), each in plain words.
+BOUNDS: dict[str, str] = {
+    "exact": "proven optimal: no controller can score more on an episode (checked against brute force)",
+    "heuristic": "a plan, not proven optimal: a further search found at most its stated gap more on the test "
+    "episodes, so a controller could score up to about that much more",
+    "not a bound": "reads what no agent knows but is not an optimum: a controller can score more (no headroom "
+    "is measured to it)",
+}
+
+
 @dataclass(frozen=True)
 class BaselineSpec:
     """A named policy for an environment.
@@ -110,6 +120,12 @@ class BaselineSpec:
             ``obs -> action`` that may also define ``reset(seed)`` (called at each episode start).
         description: One line on what the policy does.
         causal: False for a non-causal upper reference (``hindsight``) that is handed the episode's exogenous data.
+        bound: For a non-causal baseline only, what kind of upper reference it is (:data:`BOUNDS`): ``exact``,
+            ``heuristic`` or ``not a bound``.
+        gap: For a ``heuristic`` bound only: the largest relative gain (a fraction of the objective's magnitude)
+            that a further search found over it on one test episode, measured.
+        bound_note: One line on why the kind holds: the test that proves it exact, how the gap was measured,
+            or what beats it.
     """
 
     env_id: str
@@ -117,10 +133,45 @@ class BaselineSpec:
     entry_point: str
     description: str = ""
     causal: bool = True
+    bound: str = ""
+    gap: float | None = None
+    bound_note: str = ""
 
     def __post_init__(self) -> None:
         _check(bool(_SNAKE.match(self.name)), f"baseline name `{self.name}` is not lower-case snake case")
         _check(bool(_ENTRY.match(self.entry_point)), f"entry point `{self.entry_point}` is not `module:attr`")
+        where = f"baseline `{self.name}` of `{self.env_id}`"
+        if self.causal:
+            _check(
+                not self.bound and self.gap is None and not self.bound_note,
+                f"{where} is causal: `bound`, `gap` and `bound_note` are for non-causal upper references only",
+            )
+            return
+        _check(
+            self.bound in BOUNDS,
+            f"{where} is non-causal: declare `bound` as one of {list(BOUNDS)} (what kind of upper reference it is), "
+            f"not {self.bound!r}",
+        )
+        _check(bool(self.bound_note), f"{where}: `bound_note` must say why its bound is `{self.bound}`")
+        if self.bound == "heuristic":
+            _check(
+                self.gap is not None and math.isfinite(self.gap) and self.gap >= 0,
+                f"{where}: a `heuristic` bound needs `gap`, the measured relative gain of a further search "
+                f"(a fraction >= 0), not {self.gap}",
+            )
+        else:
+            _check(self.gap is None, f"{where}: `gap` is for a `heuristic` bound only, not `{self.bound}`")
+
+    def bound_words(self) -> str:
+        """The kind of bound in a table cell: ``exact``, ``heuristic (gap <= 0.05 %)`` or ``not a bound``."""
+        if self.bound == "heuristic" and self.gap is not None:
+            return f"heuristic (a further search gains <= {100 * self.gap:.2g} %)"
+        return self.bound
+
+    @property
+    def is_bound(self) -> bool:
+        """Whether it bounds what a controller can score (``exact`` or ``heuristic``): headroom is measured to it."""
+        return self.bound in ("exact", "heuristic")
 
 
 #: How a claim compares its policy with the others (see :class:`Claim`).

@@ -98,29 +98,46 @@ def improvement(episodes: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=["agent", "baseline", "p", "low", "high"])
 
 
-def check_claims(env_id: str, budget: str, episodes: pd.DataFrame) -> list[dict[str, Any]]:
-    """Every claim the env's protocol declares, checked on the scores of ``episodes`` (each on its quantity)."""
+def check_claims(env_id: str, budget: str, episodes: pd.DataFrame, bootstrap_seed: int = 0) -> list[dict[str, Any]]:
+    """Every claim the env's protocol declares, checked on the scores of ``episodes`` (each on its quantity).
+
+    A claim about an agent whose every seed scores as a baseline in every test episode (:func:`identical`)
+    records that baseline (``identical_to``): the agent learned nothing the baseline does not do.
+
+    ``bootstrap_seed`` seeds every interval (the published verdicts: 0; another seed shows how much the ends move).
+    """
     from gym4real.bench.benchmark import protocol
 
     scores, seeds = _read(episodes)
     trained = {n for n in scores if seeds[n]}
+    learned = {
+        agent: same
+        for agent in trained
+        if (same := next((b for b in scores if b not in trained and identical(scores[agent], scores[b])), None))
+    }
     records = []
     for claim in protocol(env_id).claims:
         own = scores if claim.quantity == "objective" else quantity_scores(episodes, claim.quantity)
         beside = None if claim.quantity == "objective" else scores
-        record = check_claim(claim, own, trained, seeds.get(claim.policy) or None, beside)
+        record = check_claim(claim, own, trained, seeds.get(claim.policy) or None, beside, bootstrap_seed)
+        if claim.policy in learned:  # every seed plays a baseline's episodes: the verdict is about that baseline
+            record["identical_to"] = learned[claim.policy]
         records.append({"env_id": env_id, "budget": budget, **record})
     return records
 
 
 def profile_figure(episodes: pd.DataFrame, path: Path, title: str) -> None:
-    """``performance_profile.png``: per policy, the fraction of its (run, episode) scores above each score."""
+    """``performance_profile.png``: per policy, the fraction of its (run, episode) scores above each score.
+
+    ``title``: the env id (an upper reference is labelled with its kind).
+    """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     from gym4real.bench.plots import LINESTYLES, MARKERS
+    from gym4real.bench.upper_reference import label
 
     scores, seeds = _read(episodes)
     same = identical_to(scores)
@@ -133,7 +150,7 @@ def profile_figure(episodes: pd.DataFrame, path: Path, title: str) -> None:
             tau,
             point,
             where="post",
-            label=f"{name} (identical to {same[name]})" if name in same else name,
+            label=f"{label(title, name)} (identical to {same[name]})" if name in same else label(title, name),
             linestyle=LINESTYLES[i % len(LINESTYLES)],
             marker=MARKERS[i % len(MARKERS)],
             markersize=4,

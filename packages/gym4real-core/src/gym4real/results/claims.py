@@ -110,10 +110,18 @@ def _positive(claim: Claim) -> str:
 
 
 def _seed_rule(
-    claim: Claim, a: np.ndarray, b: np.ndarray, b_trained: bool, level: float, seed_ids: list[int] | None
+    claim: Claim,
+    a: np.ndarray,
+    b: np.ndarray,
+    b_trained: bool,
+    level: float,
+    seed_ids: list[int] | None,
+    bootstrap_seed: int = 0,
 ) -> list[dict[str, Any]]:
     """Each training seed of ``a`` against ``b``: its own interval of the difference and that interval's verdict."""
-    estimates, lows, highs = stats.per_seed_difference_ci(a, b, b_trained, statistic_of(claim), level=level)
+    estimates, lows, highs = stats.per_seed_difference_ci(
+        a, b, b_trained, statistic_of(claim), seed=bootstrap_seed, level=level
+    )
     ids = seed_ids if seed_ids is not None and len(seed_ids) == len(a) else list(range(len(a)))
     rows = []
     for seed, estimate, low, high in zip(ids, estimates, lows, highs, strict=True):
@@ -132,6 +140,7 @@ def compare(
     level: float,
     seed_ids: list[int] | None = None,
     beside: dict[str, np.ndarray] | None = None,
+    bootstrap_seed: int = 0,
 ) -> dict[str, Any]:
     """One comparison of a claim: the difference ``claim.policy - other``, its interval and verdict.
 
@@ -146,10 +155,12 @@ def compare(
         seed_ids: The training seeds of ``claim.policy``'s rows (for the record).
         beside: Policy -> objective matrix, when the claim's quantity is not the objective: the IQM difference
             of the objective is recorded beside (``objective``), not deciding anything.
+        bootstrap_seed: The seed of every bootstrap of the comparison.
     """
     a, b = scores[claim.policy], scores[other]
     statistic = statistic_of(claim)
-    estimate, low, high = stats.difference_ci(a, b, claim.policy in trained, other in trained, statistic, level=level)
+    a_trained, b_trained = claim.policy in trained, other in trained
+    estimate, low, high = stats.difference_ci(a, b, a_trained, b_trained, statistic, bootstrap_seed, level)
     record: dict[str, Any] = {
         "a": claim.policy,
         "b": other,
@@ -162,7 +173,7 @@ def compare(
     }
     if beside is not None:
         e, lo, hi = stats.difference_ci(
-            beside[claim.policy], beside[other], claim.policy in trained, other in trained, level=level
+            beside[claim.policy], beside[other], a_trained, b_trained, seed=bootstrap_seed, level=level
         )
         record["objective"] = {"statistic": "iqm", "estimate": e, "low": lo, "high": hi}
     if claim.relation == "not_above":
@@ -172,7 +183,7 @@ def compare(
         return record
     record["verdict"], record["rule"] = stats.verdict(_positive(claim), low, high)
     if claim.consistently:
-        seeds = _seed_rule(claim, a, b, other in trained, level, seed_ids)
+        seeds = _seed_rule(claim, a, b, b_trained, level, seed_ids, bootstrap_seed)
         record["seeds"] = seeds
         verdicts = {s["verdict"] for s in seeds}
         if record["verdict"] != "refuted" and "refuted" in verdicts:
@@ -210,6 +221,7 @@ def check_claim(
     trained: set[str],
     seed_ids: list[int] | None = None,
     beside: dict[str, np.ndarray] | None = None,
+    bootstrap_seed: int = 0,
 ) -> dict[str, Any]:
     """The verdict of one claim, with every comparison and the rule that decided it.
 
@@ -219,6 +231,7 @@ def check_claim(
         trained: The policies whose rows are training seeds.
         seed_ids: The training seeds of ``claim.policy``'s rows (for the record).
         beside: Policy -> objective matrix, shown beside a claim on another quantity (see :func:`compare`).
+        bootstrap_seed: The seed of every bootstrap (the published verdicts: 0).
     """
     record: dict[str, Any] = {
         "text": claim.text,
@@ -240,7 +253,7 @@ def check_claim(
         return record
     level = 1 - (1 - FAMILY_LEVEL) / intervals_of(claim, len(scores[claim.policy]))
     record["level"] = level
-    comps = [compare(claim, other, scores, trained, level, seed_ids, beside) for other in claim.others]
+    comps = [compare(claim, other, scores, trained, level, seed_ids, beside, bootstrap_seed) for other in claim.others]
     record["comparisons"] = comps
     verdict, rule, deciding = _family(comps, _positive(claim))
     if claim.relation == "not_above":

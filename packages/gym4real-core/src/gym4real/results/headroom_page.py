@@ -1,10 +1,14 @@
-"""The results page's headroom table: per env, how far the best agent is from the hindsight upper reference.
+"""The results page's headroom table: per env and paper agent, how far it is from the upper reference.
 
 Read from each paper section's ``episodes.csv`` (``gym4real reproduce`` runs the env's non-causal upper
-references beside its baselines): the upper reference's IQM, the best paper agent's and the best
-rule-based baseline's, the headroom (upper reference minus best agent) with its two-level bootstrap
-interval (:func:`gym4real.bench.upper_reference.headroom`), and where the upper reference sits on the suite
-scale (0 = ``random``, 1 = the best rule-based baseline).
+references beside its baselines). Each row names the upper reference, its IQM and its kind as the domain
+declares it (``BaselineSpec.bound``: exact, heuristic with its measured gap, or not a bound), the agent, the
+best rule-based baseline, and for an upper reference that is a bound: the headroom (upper reference minus
+the agent) with its two-level bootstrap interval (:func:`gym4real.bench.upper_reference.headroom`), the share
+of the headroom the agent closed, ``(agent - random) / (upper - random)`` with its interval
+(:func:`gym4real.bench.upper_reference.headroom_closed`), and where the upper reference sits on the suite
+scale (0 = ``random``, 1 = the best rule-based baseline). A row whose upper reference is not a bound has no
+headroom and no share: an agent can score more than it.
 """
 
 from __future__ import annotations
@@ -14,9 +18,19 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from gym4real.results.results_page import Section
 
+#: The columns of the headroom table.
+HEADER = (
+    "| env | upper reference | kind | agent | best rule-based | headroom [95 % CI] | share of the headroom closed "
+    "[95 % CI] | upper reference on the scale |"
+)
+
 
 def _num(value: float) -> str:
     return f"{value:.4g}"
+
+
+def _share(value: float) -> str:
+    return f"{100 * value:.3g} %"
 
 
 def headroom_table(sections: list[Section]) -> list[str]:
@@ -25,6 +39,7 @@ def headroom_table(sections: list[Section]) -> list[str]:
     from gym4real.bench.benchmark import protocol
     from gym4real.bench.episodes import score_matrices
     from gym4real.core.registry import non_causal
+    from gym4real.core.registry import upper_reference as spec_of
 
     rows: list[str] = []
     for section in sections:
@@ -37,39 +52,51 @@ def headroom_table(sections: list[Section]) -> list[str]:
         measured = [u for u in upper if u in scores]
         if not measured:
             rows.append(
-                f"| `{name}` | not measured in this section (`gym4real bench {env_id} --policies {upper[0]}`) | | | | |"
+                f"| `{name}` | not measured in this section (`gym4real bench {env_id} --policies {upper[0]}`) "
+                "| | | | | | |"
             )
             continue
         spec = protocol(env_id)
         baselines = {p: m for p, m in scores.items() if not seeds[p]}
         scale = suite_score.scale(env_id, baselines, spec.rule_based)
-        agents = {p: m for p, m in scores.items() if seeds[p]}
-        best_agent = max(agents, key=lambda p: stats.iqm(agents[p]), default=None)
+        agents = sorted(p for p in scores if seeds[p])
         best_rule = f"`{scale.best}` {_num(scale.top)}" if scale.best else "-"
         for u in measured:
+            kind = spec_of(env_id, u)
             top = stats.iqm(scores[u])
-            on_scale = f"{_num(float(scale.normalise(top)))}" if scale.usable else "-"
-            if best_agent is None:
-                rows.append(f"| `{name}` | `{u}` {_num(top)} | - | {best_rule} | - | {on_scale} |")
-                continue
-            room = upper_reference.headroom(scores[u], agents[best_agent])
-            rows.append(
-                f"| `{name}` | `{u}` {_num(top)} | `{best_agent}` {_num(room['agent_iqm'])} | {best_rule} | "
-                f"{_num(room['shortfall'])} [{_num(room['low'])}, {_num(room['high'])}] | {on_scale} |"
-            )
+            on_scale = f"{_num(float(scale.normalise(top)))}" if scale.usable and kind.is_bound else "-"
+            head = f"| `{name}` | `{u}` {_num(top)} | {kind.bound_words()} |"
+            for i, agent in enumerate(agents or [None]):
+                cells = [f"`{agent}` {_num(stats.iqm(scores[agent]))}" if agent else "-", best_rule]
+                if agent is None or not kind.is_bound:
+                    cells += ["-" if kind.is_bound else "- (not a bound)", "-", on_scale]
+                else:
+                    room = upper_reference.headroom(scores[u], scores[agent])
+                    cells.append(f"{_num(room['shortfall'])} [{_num(room['low'])}, {_num(room['high'])}]")
+                    if "random" in baselines:
+                        closed = upper_reference.headroom_closed(scores[u], baselines["random"], scores[agent])
+                        cells.append(f"{_share(closed['share'])} [{_share(closed['low'])}, {_share(closed['high'])}]")
+                    else:
+                        cells.append("- (no `random`)")
+                    cells.append(on_scale)
+                rows.append((head if i == 0 else "| | | |") + " " + " | ".join(cells) + " |")
     if not rows:
         return []
     return [
         "## Headroom: how far from optimal?",
         "",
-        "The upper reference (`hindsight`) is non-causal: it is handed each test episode's exogenous data and plans "
-        "the episode with hindsight, so it bounds what any controller could score (see *How far from optimal?*). "
-        "IQMs of the per-episode objective; headroom = upper reference minus the best agent, with its 95 % two-level "
-        "bootstrap interval; the last column places the upper reference on the suite scale (0 = `random`, 1 = the "
-        "best rule-based baseline).",
+        "The upper references are non-causal: each is handed the test episode's exogenous data (or the simulator's "
+        "ground truth) and plans or acts with it (see *How far from optimal?*). Each is labelled by its kind, as its "
+        "domain declares it: **exact** (proven optimal: no controller can score more on an episode), **heuristic** "
+        "(a plan, not proven optimal: a further search found at most the stated gap more on a test episode) or "
+        "**not a bound** (a controller can score more: no headroom is measured to it). IQMs of the per-episode "
+        "objective, every paper agent (all seeds pooled); headroom = upper reference minus the agent, with its 95 % "
+        "two-level bootstrap interval; the share of the headroom closed is (agent - `random`) / (upper reference - "
+        "`random`), the suite scale with the optimum as its 1; the last column places the upper reference on the "
+        "suite scale (0 = `random`, 1 = the best rule-based baseline).",
         "",
-        "| env | upper reference | best agent | best rule-based | headroom [95 % CI] | upper reference on the scale |",
-        "|---|---|---|---|---|---|",
+        HEADER,
+        "|---|---|---|---|---|---|---|---|",
         *rows,
         "",
     ]

@@ -33,7 +33,8 @@ from gym4real.results.claims import QUANTITIES, RULES, VERDICTS
 from gym4real.results.fingerprints import section_changes
 from gym4real.results.headroom_page import headroom_table
 from gym4real.results.page_manifest import files_sha256, imported_by_all, section_record
-from gym4real.results.section_provenance import currency_line, models_lines, run_provenance
+from gym4real.results.published_models import FOLDER as MODELS
+from gym4real.results.section_provenance import currency_line, machine_caveat, models_lines, run_provenance
 from gym4real.results.stand_ins import budget_mark, difference_lines
 
 #: The files of a results folder that the page folder holds.
@@ -374,7 +375,9 @@ def _section(folder: Path, section: Section | None, version: str) -> list[str]:
                     f"| {c['text'] if i == 0 else ''} | {_comparison(c, comp, scale)} | {comp['level']:.4g} "
                     f"| {_verdict(comp['verdict'], budget, bold=False)} | {comp['rule']} |"
                 )
-            lines.append(f"| | **claim** | {c['family_level']:.2g} | {_verdict(c['verdict'], budget)} | {_rule(c)} |")
+            lines.append(
+                f"| | **claim** | {c['family_level']:.2g} | {verdict_cell(c, machine_caveat(report))} | {_rule(c)} |"
+            )
         lines.append("")
         lines += [_shows(section, c) for c in claims if own] + ([""] if own else [])
     for file, caption in _FIGURES:
@@ -383,15 +386,35 @@ def _section(folder: Path, section: Section | None, version: str) -> list[str]:
     return lines
 
 
+def learned_words(c: dict[str, Any]) -> str:
+    """What a claim's agent learned, when every seed of it scores as a baseline in every test episode; else ``""``."""
+    same = c.get("identical_to")
+    if not same:
+        return ""
+    return (
+        f"`{c['policy']}` learned nothing beyond `{same}`: every seed scores exactly as `{same}` in every test "
+        f"episode, so the verdict is about `{same}`'s policy"
+    )
+
+
+def verdict_cell(c: dict[str, Any], caveat: str = "") -> str:
+    """A claim's verdict with what its agent learned (:func:`learned_words`) and the section's caveat, if any."""
+    notes = [n for n in (learned_words(c), caveat) if n]
+    return _verdict(c["verdict"], c["budget"]) + "".join(f"; {n}" for n in notes)
+
+
 def claims_table(
     claims: list[dict[str, Any]],
     scales: dict[str, float] | None = None,
     own: bool = False,
     marks: dict[str, str] | None = None,
+    caveats: dict[str, str] | None = None,
 ) -> str:
     """A short Markdown table: per claim of the paper (``own``: per own check), verdict, rule, deciding comparison.
 
-    ``marks``: section name -> its budget column's entry (:func:`~gym4real.results.stand_ins.budget_mark`).
+    ``marks``: section name -> its budget column's entry (:func:`~gym4real.results.stand_ins.budget_mark`);
+    ``caveats``: section name -> the caveat its verdicts carry (:func:`~gym4real.results.section_provenance.
+    machine_caveat`).
     """
     claims = [c for c in claims if c.get("paper", True) is not own]
     if not claims:
@@ -407,20 +430,21 @@ def claims_table(
         comp = next((x for x in c["comparisons"] if x["b"] == c.get("deciding")), None)
         where = _comparison(c, comp, scale) if comp else "-"
         budget = (marks or {}).get(f"{env}-{c['budget']}", c["budget"])
-        lines.append(
-            f"| `{env}` | {budget} | {c['text']} | {_verdict(c['verdict'], c['budget'])} | {_rule(c)} | {where} |"
-        )
+        caveat = (caveats or {}).get(f"{env}-{c['budget']}", "")
+        lines.append(f"| `{env}` | {budget} | {c['text']} | {verdict_cell(c, caveat)} | {_rule(c)} | {where} |")
     return "\n".join(lines) + "\n"
 
 
-def _verdicts(claims: list[dict[str, Any]], scales: dict[str, float], marks: dict[str, str]) -> list[str]:
+def _verdicts(
+    claims: list[dict[str, Any]], scales: dict[str, float], marks: dict[str, str], caveats: dict[str, str]
+) -> list[str]:
     """The verdict tables (the paper's claims, then this suite's own checks) and the three verdicts' definitions."""
     paper = sum(c.get("paper", True) for c in claims)
-    own = claims_table(claims, scales, own=True, marks=marks)
+    own = claims_table(claims, scales, own=True, marks=marks, caveats=caveats)
     return [
         f"## Verdicts on the paper's claims ({paper})",
         "",
-        claims_table(claims, scales, marks=marks),
+        claims_table(claims, scales, marks=marks, caveats=caveats),
         *(
             [
                 "Checks of this suite's own, outside the paper's claims: the paper does not make them.",
@@ -467,7 +491,11 @@ def _method() -> list[str]:
         "percentile-bootstrap interval: each replicate draws the test episodes with replacement, the same ones "
         "for every policy, and an RL algorithm's training seeds with replacement, so that the interval covers "
         "the variability of training as well as of the test episodes; a baseline's episodes are resampled only. "
-        "*Spread* is the standard deviation across test episodes, per seed, averaged over seeds. The probability "
+        f"Every interval takes enough replicates that {stats.TAIL} lie beyond each of its ends "
+        f"({stats.replicates_at(0.95):,} at 95 %, more at a claim's Bonferroni level), so that its ends do not "
+        "depend on the bootstrap's seed (rerun with five seeds, no verdict changes and no deciding end moves by 5 % "
+        "of its interval's width). *Spread* is the standard deviation across test episodes, per seed, averaged "
+        "over seeds. The probability "
         "of improvement is rliable's P(agent > baseline): the chance that a run of the agent scores more than "
         "the baseline on the same test episode (ties count one half). Numbers below 1e-9 of the scores' "
         "magnitude are float noise and shown as 0. Wall times and env-steps/s were measured on a shared machine "
@@ -492,11 +520,12 @@ def _method() -> list[str]:
 
 
 def suite_scores(sections: list[Section]) -> list[str]:
-    """The page's suite-score section: each paper agent's suite score over the paper-budget envs of the page.
+    """The page's suite-score section: each paper agent's scores on the paper-budget envs of the page.
 
     Computed from the sections' ``episodes.csv`` alone, on the scale of :mod:`gym4real.bench.suite_score`
     (0 = ``random``, 1 = the env's best rule-based baseline), the same numbers ``gym4real evaluate`` prints
-    beside a user's agent.
+    beside a user's agent: per env, and aggregated over the envs each agent was trained on. Agents trained on
+    different envs are in separate tables: their aggregates average different envs and are not ranked.
     """
     from gym4real.bench import suite_score
     from gym4real.bench.benchmark import protocol
@@ -524,25 +553,38 @@ def suite_scores(sections: list[Section]) -> list[str]:
         "## Suite score of the paper agents",
         "",
         "Each run (a training seed on an env) scores the IQM of its test episodes on the env's scale: 0 is the "
-        "`random` baseline, 1 the env's best rule-based baseline. An agent's suite score is the IQM of its runs "
-        "over the envs it was trained on, with a stratified bootstrap (seeds and test episodes resampled within each "
-        "env) and its "
-        "optimality gap (mean shortfall below 1). `gym4real evaluate` puts your agent on the same scale. "
-        + "Scales: "
-        + "; ".join(scales)
-        + ".",
+        "`random` baseline, 1 the env's best rule-based baseline (what a practitioner would deploy without "
+        "learning; the scale does not reach the optimum: the headroom table below measures the distance to the upper "
+        "references). Per env: the IQM of the agent's episodes there (all seeds), normalised. An agent's suite "
+        "score is the IQM of its runs over the envs it was trained on, with a stratified bootstrap (seeds and test "
+        "episodes resampled within each env), and its shortfall below the best rule (the mean shortfall of the runs "
+        "below 1: rliable's *optimality gap* with the best rule as the target, not a gap to an optimum). Agents "
+        "trained on different envs average different envs: each set of envs has its own table, and agents are "
+        "compared per env, never by aggregates over different envs. `gym4real evaluate` puts your agent on the same "
+        "scale. Scales: " + "; ".join(scales) + ".",
         "",
-        "| agent | envs | runs | suite score (IQM) [95 % CI] | optimality gap [95 % CI] |",
-        "|---|---|---|---|---|",
     ]
-    for policy, per_env in sorted(runs.items()):
-        score = suite_score.summary(per_env)
-        envs = ", ".join(f"`{e.split('/', 1)[-1]}`" for e in per_env)
-        lines.append(
-            f"| {policy} | {envs} | {score['runs']} | {score['iqm']:.4g} {_ci(score['low'], score['high'])} | "
-            f"{score['optimality_gap']:.4g} {_ci(score['optimality_gap_low'], score['optimality_gap_high'])} |"
-        )
-    return [*lines, ""]
+    groups: dict[tuple[str, ...], list[str]] = {}
+    for policy in sorted(runs):
+        groups.setdefault(tuple(runs[policy]), []).append(policy)
+    for envs, policies in groups.items():
+        names = [f"`{e.split('/', 1)[-1]}`" for e in envs]
+        lines += [
+            f"Trained on {', '.join(names)}:",
+            "",
+            f"| agent | runs | {' | '.join(names)} | suite score (IQM) [95 % CI] | shortfall below the best rule "
+            "[95 % CI] |",
+            "|---|---|" + "---|" * len(envs) + "---|---|",
+        ]
+        for policy in policies:
+            score = suite_score.summary(runs[policy])
+            per_env = " | ".join(f"{score['per_env'][e]:.4g}" for e in envs)
+            lines.append(
+                f"| {policy} | {score['runs']} | {per_env} | {score['iqm']:.4g} {_ci(score['low'], score['high'])} | "
+                f"{score['shortfall']:.4g} {_ci(score['shortfall_low'], score['shortfall_high'])} |"
+            )
+        lines.append("")
+    return lines
 
 
 def manifest(sections: list[Section], version: str) -> dict[str, Any]:
@@ -637,6 +679,7 @@ def write_page(out: Path, page: str | Path | None = None) -> Path:
     claims = [c for s in sections.values() for c in s.claims]
     scales = {s.name: s.scale for s in sections.values()}
     marks = {s.name: budget_mark(s.report, s.budget) for s in sections.values()}
+    caveats = {s.name: machine_caveat(s.report) for s in sections.values()}
     record = manifest(list(sections.values()), version)
     others = [s.name for s in sections.values() if s.stale]
     head = [
@@ -647,7 +690,7 @@ def write_page(out: Path, page: str | Path | None = None) -> Path:
         + f"Versions: {', '.join(f'{k} {v}' for k, v in record['versions'].items())}; {record['platform']}.",
         "",
         *_summary_figure(list(sections.values()), out),
-        *_verdicts(claims, scales, marks),
+        *_verdicts(claims, scales, marks, caveats),
         *suite_scores(list(sections.values())),
         *headroom_table(list(sections.values())),
     ]
@@ -658,7 +701,7 @@ def write_page(out: Path, page: str | Path | None = None) -> Path:
     (out / "results.md").write_text(text)
     (out / "claims.json").write_text(json.dumps(claims, indent=1))
     (out / "claims.md").write_text(
-        claims_table(claims, scales, marks=marks) + claims_table(claims, scales, True, marks)
+        claims_table(claims, scales, marks=marks, caveats=caveats) + claims_table(claims, scales, True, marks, caveats)
     )
     record["files"] = page_files(out, text)
     (out / MANIFEST).write_text(json.dumps(record, indent=1))

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 
@@ -29,6 +30,18 @@ def currency_line(stale: list[str], verified: dict[str, str] | None = None) -> s
         )
         line += "."
     return line
+
+
+def machine_caveat(report: dict[str, Any]) -> str:
+    """The caveat a section's verdicts carry while its rows depend on the machine that ran them, else ``""``.
+
+    Read from ``report.json``'s ``machine_dependent`` (what was measured: which rows another machine scored
+    differently); a rerun that finds every row equal on another machine removes that key, and the caveat with it.
+    """
+    measured = report.get("machine_dependent")
+    if not measured:
+        return ""
+    return f"**caveat**: these rows depend on the machine that ran them ({measured}); the verdict may differ on another"
 
 
 def _resumes(text: object) -> str:

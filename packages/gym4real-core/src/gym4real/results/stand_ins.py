@@ -29,10 +29,57 @@ def stand_in_data(report: dict[str, Any]) -> list[str]:
     return list(dict.fromkeys(found))
 
 
+def stand_in_presets(report: dict[str, Any]) -> list[tuple[str, str, str, int | None, int | None, str]]:
+    """The section's stand-in presets: ``(algo, preset, named, its size, the named preset's size, unit)``.
+
+    A stand-in preset is one that serves the budget in place of the preset named for it (``named``); the sizes
+    are its ``total_timesteps`` (unit ``steps``) or ``episodes``, None where no preset is named for the budget.
+    """
+    from gym4real.bench.seeds import BUDGETS
+    from gym4real.rl.presets import load_preset
+
+    env_id, budget = report["env_id"], report["budget"]
+    named = BUDGETS.get(budget, budget)
+    found: list[tuple[str, str, str, int | None, int | None, str]] = []
+    for algo, preset in report.get("presets", {}).items():
+        if preset == named:
+            continue
+        try:
+            mine = load_preset(env_id, algo, preset)
+        except Exception:  # a preset no longer registered: named, not sized
+            found.append((algo, preset, named, None, None, "steps"))
+            continue
+        unit = "total_timesteps" if "total_timesteps" in mine else "episodes"
+        try:
+            theirs = load_preset(env_id, algo, named).get(unit)
+        except Exception:  # no preset named for the budget: nothing to compare with
+            theirs = None
+        words = "steps" if unit == "total_timesteps" else "episodes"
+        found.append((algo, preset, named, mine.get(unit), theirs or None, words))
+    return found
+
+
 def budget_mark(report: dict[str, Any], budget: str) -> str:
-    """The budget column's entry: ``paper``, or ``paper (stand-in data: ...)`` when it read stand-in data."""
+    """The budget column's entry: ``paper``, with the stand-in data it read and the fraction of the paper's steps.
+
+    ``paper (stand-in data: ...; 2.6 % of the paper's steps)`` when it read stand-in data or trained with
+    stand-in presets (:func:`stand_in_presets`; per algorithm where their fractions differ).
+    """
+    parts = []
     data = stand_in_data(report)
-    return f"{budget} (**stand-in data**: {'; '.join(data)})" if data else budget
+    if data:
+        parts.append(f"**stand-in data**: {'; '.join(data)}")
+    fractions = {
+        algo: f"{100 * mine / theirs:.2g} % of the paper's {unit}"
+        for algo, _, _, mine, theirs, unit in stand_in_presets(report)
+        if mine is not None and theirs
+    }
+    if fractions:
+        if len(set(fractions.values())) == 1:
+            parts.append(f"**{next(iter(fractions.values()))}**")
+        else:
+            parts.append("; ".join(f"`{algo}` **{words}**" for algo, words in fractions.items()))
+    return f"{budget} ({'; '.join(parts)})" if parts else budget
 
 
 def differences(report: dict[str, Any], episodes: pd.DataFrame) -> list[str]:
@@ -40,27 +87,15 @@ def differences(report: dict[str, Any], episodes: pd.DataFrame) -> list[str]:
 
     Empty when it read no stand-in data and trained with the presets named for its budget.
     """
-    from gym4real.bench.seeds import BUDGETS
-    from gym4real.rl.presets import load_preset
-
-    env_id, budget = report["env_id"], report["budget"]
-    named = BUDGETS.get(budget, budget)
     found = [f"data: {'; '.join(data)}" for data in [stand_in_data(report)] if data]
-    for algo, preset in report.get("presets", {}).items():
-        if preset == named:
-            continue
-        try:
-            mine, theirs = load_preset(env_id, algo, preset), load_preset(env_id, algo, named)
-        except Exception:  # no preset named for the budget: nothing to compare with
+    for algo, preset, named, mine, theirs, unit in stand_in_presets(report):
+        if theirs is None or mine is None:
             found.append(f"`{algo}` trained with the stand-in preset `{preset}`")
             continue
-        unit = "total_timesteps" if "total_timesteps" in mine else "episodes"
-        if theirs.get(unit):
-            found.append(
-                f"`{algo}` trained with the stand-in preset `{preset}` in place of `{named}`: {mine[unit]:,} "
-                f"{'steps' if unit == 'total_timesteps' else 'episodes'}, {100 * mine[unit] / theirs[unit]:.1f} % "
-                f"of the {theirs[unit]:,} of `{algo}/{named}`"
-            )
+        found.append(
+            f"`{algo}` trained with the stand-in preset `{preset}` in place of `{named}`: {mine:,} {unit}, "
+            f"{100 * mine / theirs:.1f} % of the {theirs:,} of `{algo}/{named}`"
+        )
     if found:
         tests = int(episodes.groupby(["policy", "seed"], dropna=False)["episode"].nunique().max())
         found.append(f"test: {tests} episodes of this data's test split ({report['protocol']})")

@@ -92,8 +92,14 @@ def gym4real_register_baselines() -> list[BaselineSpec]:
             ENV_ID,
             "hindsight",
             "gym4real.dam.hindsight:hindsight",
-            "upper reference: dynamic programming over the lake level knowing the year's inflows and demand",
+            "upper reference: dynamic programming over the lake level knowing the year's inflows and demand, then a "
+            "local search through the env",
             causal=False,
+            bound="heuristic",
+            gap=0.0001,
+            bound_note="a DP on a 2.5 mm level grid, then a local search through the env's days; a further search "
+            "(transfers up to 30 days apart, finer changes, random moves) gained at most 0.0076 % on a test year "
+            "(2010)",
         ),
     ]
 

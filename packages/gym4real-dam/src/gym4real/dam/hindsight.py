@@ -18,24 +18,32 @@ bounds (:func:`gym4real.dam.vector_kernel.integrate_copies`), and scored by the 
 objective ends with the year.
 
 **The plan.** Forward from the episode's exact start, each day takes the candidate of highest
-``reward + V(next level)`` integrated from the exact storage; the plan is therefore a closed-loop
-trajectory of the environment itself, and replaying it through :meth:`DamEnv.step` scores exactly what
-the forward pass computed. ``planned_objectives`` holds the programme's own estimate ``V_0(level)``
-(interpolated on the grid) of each episode, beside the replayed score the protocol records.
+``reward + V(next level)`` integrated from the exact storage: a trajectory of the environment itself.
+``planned_objectives`` holds the programme's own estimate ``V_0(level)`` (interpolated on the grid) of each
+episode, ``dp_objectives`` the objective of this plan.
+
+**The local search.** The grid's interpolation and its quantised releases leave the DP's plan short of the
+best (by 0.1 to 1.4 % on the test years). A local search through the env's days then improves it
+(:func:`gym4real.dam.hindsight_kernel.improve`): each day's release moved up or down, and release moved
+between two days at most ``SEARCH_WINDOW`` days apart, by ``SEARCH_CHANGES`` grid quanta (8 down to 1/64),
+each candidate played through the env's compiled hourly mass balance and kept when the year scores more;
+passes repeat until one gains at most ``SEARCH_TOLERANCE`` of the objective. The plan played is the
+search's, re-integrated by the env's own :meth:`Lake.day` (the function :meth:`DamEnv.step` calls), so
+that replaying it through :meth:`DamEnv.step` scores exactly ``forward_objectives``. The planner is still
+not exact: a further search (docs/headroom.md: wider transfers, finer changes, random moves) measures the
+distance to a better plan. ``search=False`` plays the DP's plan.
 
 **Weights.** Given ``weights`` over the objectives of ``gym4real/dam-mo-v0`` (shortage, flooding:
 :mod:`gym4real.dam.multi_objective`), the programme plans the weighted objective instead: each day's deficit
 and starving terms weighted by the shortage weight, its overflow term by the flooding weight, which sum over
 the year to ``weights`` times the objective vector (:func:`weighted_hindsight`, the factory of the
-multi-objective upper reference front). ``planned_objectives`` and ``forward_objectives`` are then of the
-weighted objective, and the weights are in the plan's cache key. Without weights (the default) nothing
-changes: the protocol's objective, the same cache keys.
+multi-objective upper reference front); the search improves the weighted objective. ``planned_objectives``,
+``dp_objectives`` and ``forward_objectives`` are then of the weighted objective, and the weights are in the
+plan's cache key. Without weights (the default) nothing changes: the protocol's objective.
 
-**Grid.** The default 2.5 mm grid: halving it to 1.25 mm changed the IQM of the replayed objective over the
-13 test years by 0.16 %, and each year's by at most 0.55 % (2010; docs/headroom.md tables the gaps,
-and a slow test checks that year);
-halving 5 mm to 2.5 mm changed 1950's by 0.57 %, so 5 mm is not fine enough. About 5 s of CPU
-per year (the 13 test years: about 64 s); plans are cached.
+**Grid and cost.** The default 2.5 mm grid (halving 5 mm to 2.5 mm changed 1950's DP plan by 0.57 %). About
+5 s of CPU per year for the DP and about 1 s for the search (the 13 test years: 102 s of CPU, measured on a
+shared machine); plans are cached. A further search gains at most 0.0076 % on a test year (docs/headroom.md).
 """
 
 from __future__ import annotations
@@ -55,9 +63,15 @@ from gym4real.dam.multi_objective import SPECS
 from gym4real.wrappers.multi_objective import scalar_env
 
 #: The planner's version in its cache keys: bump it when a change alters the plans.
-VERSION = "dam-dp-1"
+VERSION = "dam-dp-2"
 #: The default grid spacing of the lake level (m).
 STEP = 0.0025
+#: The release changes the local search tries, in grid quanta (the release that moves the level one grid step a day).
+SEARCH_CHANGES = tuple(2.0**k for k in range(3, -7, -1))
+#: The local search moves release between days at most this many days apart.
+SEARCH_WINDOW = 5
+#: The local search stops after a pass that gains at most this fraction of the objective.
+SEARCH_TOLERANCE = 1e-5
 
 
 def _kernel() -> Any:
@@ -79,6 +93,8 @@ class DamHindsight:
         cache: Reuse plans from the user cache (:func:`gym4real.bench.upper_reference.plan_cache`).
         weights: Plan the weighted objective of ``gym4real/dam-mo-v0`` (one non-negative weight per
             objective: shortage, flooding) instead of the protocol's; None: the protocol's.
+        search: Improve the DP's plan by the local search through the env's days (see the module docstring);
+            False plays the DP's plan.
     """
 
     def __init__(
@@ -87,6 +103,7 @@ class DamHindsight:
         step: float = STEP,
         cache: bool = True,
         weights: Sequence[float] | None = None,
+        search: bool = True,
     ) -> None:
         if not (math.isfinite(step) and step > 0):
             raise ConfigError(f"hindsight `step` must be a positive grid spacing in m, not {step}")
@@ -95,12 +112,14 @@ class DamHindsight:
             raise ConfigError(f"the dam's hindsight planner needs a DamEnv, not {type(unwrapped).__name__}")
         self.env: DamEnv = unwrapped
         self.step = float(step)
+        self.search = bool(search)
         self.weights = None if weights is None else tuple(float(w) for w in weights)
         self._component_weights = None if weights is None else SPECS[0].component_weights(weights)
         self._cache: PlanCache = plan_cache(self.env, VERSION) if cache else PlanCache(None)
         self._plan: list[float] = []
         self.planned_objectives: list[float] = []
         self.forward_objectives: list[float] = []
+        self.dp_objectives: list[float] = []
 
     def reset(self, seed: int | None = None) -> None:
         """Forget the plan: the next call plans the episode the environment has just started."""
@@ -191,18 +210,18 @@ class DamHindsight:
     def plan(self) -> list[float]:
         """Plan the environment's current episode from its current state; return the daily wanted releases."""
         c = self._constants()
-        # the weights are in the key, so that plans of a weighted objective never stand for the protocol's
-        key = (
-            plan_key(version=VERSION, **c)
-            if self.weights is None
-            else plan_key(version=VERSION, weights=self.weights, **c)
-        )
+        # the weights (and a plan without the search) are in the key: such plans never stand for the protocol's
+        extra: dict[str, Any] = {} if self.weights is None else {"weights": self.weights}
+        if not self.search:
+            extra["search"] = False
+        key = plan_key(version=VERSION, **extra, **c)
         found = self._cache.get(key)
         if found is None:
             found = self._solve(c)
             self._cache.put(key, found)
         self.planned_objectives.append(float(found["planned"]))
         self.forward_objectives.append(float(found["forward"]))
+        self.dp_objectives.append(float(found["dp"]))
         return [float(d) for d in found["decisions"]]
 
     def _solve(self, c: dict[str, Any]) -> dict[str, Any]:
@@ -216,19 +235,52 @@ class DamHindsight:
         env_lake = self.env.lake
         storage = c["storage"]
         planned = float(kernel._value(values[0], low, self.step, env_lake.storage_to_level(storage)))
-        chosen, forward = [], 0.0
+        chosen = []
         quantum = env_lake.surface * self.step / SECONDS_PER_DAY
         for t in range(exogenous.shape[0]):
             options = self._forward_options(decisions[t, : counts[t]], storage, low, quantum, exogenous[t], c["box"])
             j = kernel.choose(
                 storage, t, values, low, self.step, options, exogenous, lake, c["evaporates"], substeps, costs
             )
-            decision = float(options[j])
-            demand, inflow, min_flow, evaporation, weight = exogenous[t]
+            chosen.append(float(options[j]))
+            storage, _ = env_lake.day(storage, chosen[-1], *exogenous[t, 1:4])
+        dp = self._forward(c, chosen)
+        refined, forward = self._search(c, chosen, quantum) if self.search else (chosen, dp)
+        if forward < dp:  # the search's days and the env's differ in rounding only: never keep a worse plan
+            refined, forward = chosen, dp
+        return {
+            "decisions": refined,
+            "planned": planned,
+            "forward": forward,
+            "dp": dp,
+            "grid": [low, self.step, points],
+        }
+
+    def _forward(self, c: dict[str, Any], decisions: list[float]) -> float:
+        """The objective of the releases ``decisions`` from the episode's start, each day as DamEnv.step plays it."""
+        kernel, env_lake, storage, total = _kernel(), self.env.lake, c["storage"], 0.0
+        for decision, (demand, inflow, min_flow, evaporation, weight) in zip(decisions, c["exogenous"], strict=True):
             storage, release = env_lake.day(storage, decision, inflow, min_flow, evaporation)
-            forward += kernel._reward(release, env_lake.storage_to_level(storage), demand, min_flow, weight, costs)
-            chosen.append(decision)
-        return {"decisions": chosen, "planned": planned, "forward": forward, "grid": [low, self.step, points]}
+            total += kernel._reward(release, env_lake.storage_to_level(storage), demand, min_flow, weight, c["costs"])
+        return float(total)
+
+    def _search(self, c: dict[str, Any], decisions: list[float], quantum: float) -> tuple[list[float], float]:
+        """The DP's releases improved by the local search (:func:`~gym4real.dam.hindsight_kernel.improve`).
+
+        The changes tried are ``SEARCH_CHANGES`` grid quanta (the release that moves the level by one grid
+        step in a day), transfers up to ``SEARCH_WINDOW`` days apart; passes stop once one gains at most
+        ``SEARCH_TOLERANCE`` of the objective. Returns the releases and their objective (:meth:`_forward`).
+        """
+        exogenous, (a_low, a_high) = c["exogenous"], c["box"]
+        low = np.minimum(np.maximum(exogenous[:, 2], a_low), a_high)
+        high = np.full(exogenous.shape[0], a_high)
+        plan = np.array(decisions, dtype=np.float64)
+        _kernel().improve(
+            plan, c["storage"], exogenous, c["lake"], c["evaporates"], c["substeps"], c["costs"], low, high,
+            quantum * np.asarray(SEARCH_CHANGES), SEARCH_WINDOW, SEARCH_TOLERANCE,
+        )  # fmt: skip
+        refined = [float(d) for d in plan]
+        return refined, self._forward(c, refined)
 
     def _forward_options(
         self,

@@ -223,3 +223,124 @@ def choose(
         if value > best:
             best, index = value, j
     return index
+
+
+@njit(cache=True)
+def rollout(
+    storage: float,
+    plan: np.ndarray,
+    start: int,
+    exogenous: np.ndarray,
+    lake: tuple[float, float, float, float, float, float, float, float, float, float],
+    evaporates: bool,
+    substeps: int,
+    costs: tuple[float, float, float, float, float],
+    storages: np.ndarray,
+    rewards: np.ndarray,
+) -> float:
+    """Play the wanted releases ``plan`` from day ``start`` and ``storage`` to the end of the episode.
+
+    Each day is integrated by :func:`_days` (the env's compiled hourly mass balance) and scored by
+    :func:`_reward`; the storage after day ``t`` goes to ``storages[t + 1]``, the day's objective to
+    ``rewards[t]``.
+
+    Returns:
+        The objective of days ``start`` to the end.
+    """
+    area, lmin = lake[0], lake[1]
+    wanted, after, mean_release = np.empty(1), np.empty(1), np.empty(1)
+    total, s = 0.0, storage
+    for t in range(start, exogenous.shape[0]):
+        demand, inflow, min_flow, evaporation, weight = exogenous[t]
+        wanted[0] = plan[t] if plan[t] > min_flow else min_flow
+        _days(s, wanted, inflow, evaporation, lake, evaporates, substeps, after, mean_release)
+        s = after[0]
+        storages[t + 1] = s
+        rewards[t] = _reward(mean_release[0], s / area + lmin, demand, min_flow, weight, costs)
+        total += rewards[t]
+    return total
+
+
+@njit(cache=True)
+def improve(
+    plan: np.ndarray,
+    storage: float,
+    exogenous: np.ndarray,
+    lake: tuple[float, float, float, float, float, float, float, float, float, float],
+    evaporates: bool,
+    substeps: int,
+    costs: tuple[float, float, float, float, float],
+    low: np.ndarray,
+    high: np.ndarray,
+    deltas: np.ndarray,
+    window: int,
+    tolerance: float,
+) -> tuple[float, int]:
+    """Local search over the daily releases ``plan`` (updated in place), each candidate played day by day.
+
+    A pass tries, for each change ``d`` of ``deltas`` (m3/s) and each day ``t``: its release ``+-d`` (the
+    water held or released moves every later level), and moving ``d`` of release between day ``t`` and each
+    day ``s`` up to ``window`` days later (the levels between them move, those after ``s`` return); releases
+    stay within ``[low, high]``. A candidate is played from day ``t`` (:func:`_days`, :func:`_reward`); once
+    its storage after ``s`` is back on the plan's path (to 1e-12 of the storage) the plan's later days
+    complete the estimate, and a candidate estimated better is played to the end of the year. It is kept
+    when that objective is higher. Passes repeat until one gains at most ``tolerance`` of the objective's
+    magnitude.
+
+    Returns:
+        The objective of the improved plan (as :func:`rollout` plays it) and the number of passes.
+    """
+    days = exogenous.shape[0]
+    storages, rewards = np.empty(days + 1), np.empty(days)
+    trial_storages, trial_rewards = np.empty(days + 1), np.empty(days)
+    storages[0] = storage
+    current = rollout(storage, plan, 0, exogenous, lake, evaporates, substeps, costs, storages, rewards)
+    trial = plan.copy()
+    area, lmin = lake[0], lake[1]
+    wanted, after, mean_release = np.empty(1), np.empty(1), np.empty(1)
+    passes = 0
+    while True:
+        passes += 1
+        before = current
+        for d in deltas:
+            for t in range(days):
+                prefix = 0.0
+                for k in range(t):
+                    prefix += rewards[k]
+                for s in range(t, min(days, t + window + 1)):
+                    for sign in (1.0, -1.0):
+                        first, second = plan[t] + sign * d, plan[s] - sign * d
+                        if first < low[t] or first > high[t] or (s > t and (second < low[s] or second > high[s])):
+                            continue
+                        trial[t] = first
+                        if s > t:
+                            trial[s] = second
+                        value, level, joined = prefix, storages[t], -1
+                        for k in range(t, days):
+                            demand, inflow, min_flow, evaporation, weight = exogenous[k]
+                            wanted[0] = trial[k] if trial[k] > min_flow else min_flow
+                            _days(level, wanted, inflow, evaporation, lake, evaporates, substeps, after, mean_release)
+                            level = after[0]
+                            reward = _reward(mean_release[0], level / area + lmin, demand, min_flow, weight, costs)
+                            trial_storages[k + 1], trial_rewards[k] = level, reward
+                            value += reward
+                            if k >= s and abs(level - storages[k + 1]) <= 1e-12 * abs(storages[k + 1]):
+                                joined = k + 1
+                                break
+                        if joined >= 0:
+                            for k in range(joined, days):
+                                value += rewards[k]
+                            if value > current:  # an estimate: play the candidate to the end of the year
+                                value = prefix + rollout(
+                                    storages[t], trial, t, exogenous, lake, evaporates, substeps, costs,
+                                    trial_storages, trial_rewards,
+                                )  # fmt: skip
+                        if value > current:
+                            plan[t], plan[s] = trial[t], trial[s]
+                            current = value
+                            storages[t + 1 :] = trial_storages[t + 1 :]
+                            rewards[t:] = trial_rewards[t:]
+                        else:
+                            trial[t], trial[s] = plan[t], plan[s]
+        if current - before <= tolerance * abs(current):
+            return current, passes

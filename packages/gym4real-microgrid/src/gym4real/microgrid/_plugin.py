@@ -124,8 +124,13 @@ def gym4real_register_baselines() -> list[BaselineSpec]:
             "hindsight",
             "gym4real.microgrid.hindsight:hindsight",
             "non-causal upper reference: knows the household-year's demand, PV, prices and weather, plans the SoC "
-            "by dynamic programming, replayed through the twin",
+            "by dynamic programming, then a local search through the twin",
             causal=False,
+            bound="heuristic",
+            gap=0.001,
+            bound_note="a DP of a model of the twin on a 0.001 SoC grid, then a local search through the twin; a "
+            "further search (other changes, longer spans, a 48-hour window) gained at most 0.095 % on a test "
+            "household (373)",
         ),
     ]
 

@@ -115,6 +115,10 @@ def gym4real_register_baselines() -> list[BaselineSpec]:
             "gym4real.wds.hindsight:hindsight",
             "non-causal upper reference: knows the week's demand, beam search over pump schedules through EPANET",
             causal=False,
+            bound="heuristic",
+            gap=0.0015,
+            bound_note="exact on the 15 of the 20 test weeks where it reaches the ceiling 168 (every hour scores at "
+            "most 1); on the other five a search of width 32 instead of 8 gains at most 0.24 (week 12: 0.15 %)",
         ),
     ]
 
