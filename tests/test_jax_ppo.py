@@ -589,6 +589,39 @@ def test_truncated_years_on_dam_are_bootstrapped_and_normalised_as_sb3_does(
         _assert_state_matches(trainer, model, jax_kls, sb3_kls, 1e-3)
 
 
+def test_a_dam_model_acts_as_the_sb3_policy_that_selection_and_evaluate_run() -> None:
+    """The validation-selected checkpoint and the test scores rest on deterministic actions: a JAX model's equal
+    SB3's ``NormalizedPolicy`` (VecNormalize's statistics, the Gaussian's mean clipped to [-1, 1], mapped onto
+    the release box) for the same weights and statistics, inside and outside the clip ranges."""
+    from gym4real.rl.actor_critic import Normalization
+    from gym4real.rl.sb3 import NormalizedPolicy
+
+    env = gym.make(DAM)
+    box, space = env.action_space, env.observation_space
+    assert isinstance(box, gym.spaces.Box) and isinstance(space, gym.spaces.Box)
+    model = sb3.PPO(
+        "MlpPolicy",
+        gym.wrappers.RescaleAction(env, np.float32(-1.0), np.float32(1.0)),
+        policy_kwargs={"net_arch": [16, 16], "log_std_init": -0.5},
+        device="cpu",
+        seed=0,
+    )
+    with torch.no_grad():
+        model.policy.action_net.weight.mul_(300.0)  # a trained head's size: some means beyond [-1, 1]
+    rng = np.random.default_rng(5)
+    dim = space.shape[0]
+    mean, var = rng.normal(0, 50, dim), rng.uniform(0.5, 400, dim)
+    stats = {"mean": mean, "var": var, "count": np.array(99.0), "clip_obs": np.array(5.0), "epsilon": np.array(1e-8)}
+    obs = (mean + rng.normal(0, 8, (200, dim)) * np.sqrt(var)).astype(np.float32)  # some beyond the obs clip
+    arch = architecture(space, box, {"net_arch": [16, 16]})
+    ours = Model(arch, _params_of(model), Normalization(mean, var, 99.0, 5.0), space, box, True)
+    theirs = NormalizedPolicy(model, stats, box).actions(obs)
+    actions = ours.actions(obs)
+    assert (actions == box.low[0]).any() and (actions == box.high[0]).any()
+    assert ours.normalization is not None and (np.abs(ours.normalization(obs)) == 5.0).any()
+    np.testing.assert_allclose(actions, theirs, rtol=1e-5, atol=1e-3)
+
+
 def _arrays(path: Path) -> dict[str, np.ndarray]:
     with np.load(path, allow_pickle=False) as data:
         return {k: data[k] for k in data.files}
