@@ -420,6 +420,208 @@ def test_value_statistics_take_the_values_then_the_returns_of_the_valid_rows(tmp
     assert trainer.scaler is not None and trainer.scaler.count == 1 + 2 * valid
 
 
+# -- whole iterations on dam against SB3's trainer (the dam paper preset's features) -------------------
+
+#: The dam paper preset's PPO at a test's size: one env, normalised observations clipped at 5, standardised
+#: value targets, the KL-adaptive rate (started high enough to move both ways within a few iterations).
+DAM_PAPER_LIKE = """
+algo: ppo
+total_timesteps: 100000
+n_envs: 1
+normalize_obs: true
+clip_obs: 5.0
+value_scaler: true
+policy_kwargs: {net_arch: [16, 16], log_std_init: -0.5}
+hyperparams:
+  learning_rate: {schedule: kl_adaptive, initial: 8.0e-4, kl_threshold: 0.008}
+  n_steps: STEPS
+  batch_size: BATCH
+  n_epochs: 4
+  gamma: 0.995
+env_kwargs: {preset: train, sim_horizon: HORIZON}
+eval_env_kwargs: {preset: validation, sim_horizon: 10}
+eval_freq: 100000
+eval_episodes: 1
+"""
+
+
+def _paired_iterations(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, horizon: int, steps: int, batch: int, sb3_steps: int, count: int
+) -> Any:
+    """Iterations of the JAX trainer and of SB3's (as ``train_sb3`` builds it) on the same draws; yield each.
+
+    SB3's trainer: ``SkrlPPO`` (KL-adaptive rate, value scaler) on ``VecNormalize`` over the single DamEnv
+    (``TrainingVecEnv``, ``RescaleAction``), started from the JAX trainer's parameters. Its Gaussian draws are
+    the JAX trainer's of the valid rows, its mini-batch permutations the JAX update's. ``sb3_steps`` is SB3's
+    ``n_steps``: the JAX trainer's rollout holds one autoreset row more per episode end.
+
+    Yields:
+        ``(trainer, model, rows, valid, jax_kls, sb3_kls)`` after each iteration's update.
+    """
+    from stable_baselines3.common.distributions import DiagGaussianDistribution
+    from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    from gym4real.rl.sb3 import _algorithm, _rescale
+    from gym4real.rl.vec_env import TrainingVecEnv
+
+    text = DAM_PAPER_LIKE.replace("STEPS", str(steps)).replace("BATCH", str(batch)).replace("HORIZON", str(horizon))
+    hp = load_preset(DAM, "ppo", _tiny(tmp_path, text))
+    trainer = JaxPPO(DAM, hp, seed=0)
+    env_kwargs = {"render_mode": None, **hp["env_kwargs"]}
+    venv = make_vec_env(DAM, 1, seed=0, env_kwargs=env_kwargs, vec_env_cls=TrainingVecEnv, wrapper_class=_rescale)
+    venv = VecNormalize(venv, norm_obs=True, norm_reward=False, clip_obs=hp["clip_obs"], gamma=0.995)
+    sb3_batch = batch if sb3_steps == steps else sb3_steps  # the whole rollout, when the rows differ
+    sb3_hp = {**hp, "hyperparams": {**hp["hyperparams"], "n_steps": sb3_steps, "batch_size": sb3_batch}}
+    model = _algorithm(sb3.PPO, sb3_hp, venv, 0, None)
+    model.set_logger(configure(None, []))
+    trainer.params = {k: jnp.asarray(v) for k, v in _params_of(model).items()}
+    trainer.opt_state = trainer.adam.init(trainer.params)
+    _, callback = model._setup_learn(hp["total_timesteps"], None)  # resets the env, seeded 0
+    callback.on_training_start(locals(), globals())
+    trainer.start_episodes()  # seeded 0 too: the same first year
+    draws: list[np.ndarray] = []
+    noise = trainer._noise
+
+    def recorded_noise(key: Any) -> np.ndarray:
+        draws.append(np.asarray(noise(key)))
+        return draws[-1]
+
+    monkeypatch.setattr(trainer, "_noise", recorded_noise)
+    queue: list[np.ndarray] = []
+
+    def sample(self: Any) -> Any:
+        return self.distribution.mean + self.distribution.stddev * torch.as_tensor(queue.pop(0))
+
+    monkeypatch.setattr(DiagGaussianDistribution, "sample", sample)
+    orders: list[np.ndarray] = []
+    permutation = np.random.permutation
+    monkeypatch.setattr(np.random, "permutation", lambda n: orders.pop(0) if n == steps else permutation(n))
+    for _ in range(count):
+        rows = trainer.collect()
+        valid = rows["valid"].astype(bool)
+        queue[:] = list(draws[-1][:, 0][valid])
+        model.collect_rollouts(venv, callback, model.rollout_buffer, model.n_steps)
+        assert not queue  # SB3 drew one action per valid row
+        keys = jax.random.split(trainer._update_key, trainer.settings.n_epochs)
+        orders[:] = [np.asarray(jax.random.permutation(k, trainer.settings.rows)) for k in keys]
+        jax_kls = trainer.learn(rows)
+        done = len(model.epoch_kls)
+        model.train()
+        yield trainer, model, rows, valid, jax_kls, model.epoch_kls[done:]
+
+
+def _assert_near(ours: Any, theirs: Any, tol: float, name: str) -> None:
+    """Equal within ``tol`` times the larger of 1 and SB3's largest magnitude."""
+    theirs = np.asarray(theirs, dtype=float).ravel()
+    atol = tol * max(1.0, float(np.abs(theirs).max()))
+    np.testing.assert_allclose(np.asarray(ours, dtype=float).ravel(), theirs, rtol=0, atol=atol, err_msg=name)
+
+
+def _assert_state_matches(trainer: JaxPPO, model: Any, jax_kls: Any, sb3_kls: Any, tol: float) -> None:
+    """The value scaler's statistics and the weights (within ``tol``), the epochs' KLs (within ``5 tol``), the
+    observation statistics and the adapted rate."""
+    assert trainer.scaler is not None and model.value_scaler is not None
+    mean, var, count = trainer.scaler.state()
+    their_mean, their_var, their_count = model.value_scaler.state()
+    assert count == their_count
+    assert mean == pytest.approx(their_mean, rel=tol) and var == pytest.approx(their_var, rel=tol)
+    rms = model.get_env().obs_rms
+    np.testing.assert_allclose(trainer.stats[0], rms.mean, rtol=1e-6, atol=1e-6)
+    np.testing.assert_allclose(trainer.stats[1], rms.var, rtol=1e-6)
+    assert trainer.stats[2][0] == pytest.approx(rms.count)
+    np.testing.assert_allclose(jax_kls, sb3_kls, rtol=max(1e-3, 5 * tol), atol=1e-7)
+    assert model.rate is not None and trainer.rate == pytest.approx(model.rate.rate, rel=1e-6)
+    for name, value in _params_of(model).items():
+        _assert_near(trainer.params[name], value, tol, name)
+
+
+@pytest.mark.filterwarnings("ignore:You have specified a mini-batch size")
+def test_consecutive_iterations_on_dam_equal_sb3s_with_the_kl_adaptive_rate_and_the_value_scaler(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Four iterations of 64 days in a year (no episode end): each rollout's rows (normalised observations,
+    actions, log-probabilities, standardised values and returns, advantages), then the scaler's and the
+    observations' statistics, each epoch's KL, the adapted rate and the weights after the update."""
+    rates = []
+    for trainer, model, rows, valid, jax_kls, sb3_kls in _paired_iterations(tmp_path, monkeypatch, 365, 64, 16, 64, 4):
+        assert valid.all()
+        buffer = model.rollout_buffer
+        for ours, theirs in (
+            ("obs", buffer.observations),
+            ("actions", buffer.actions),
+            ("old_log_prob", buffer.log_probs),
+            ("old_values", buffer.values),
+            ("advantages", buffer.advantages),
+            ("returns", buffer.returns),
+        ):
+            _assert_near(rows[ours], theirs, 1e-5, ours)
+        _assert_state_matches(trainer, model, jax_kls, sb3_kls, 2e-5)
+        rates.append(trainer.rate)
+    steps = np.diff([8e-4, *rates])
+    assert (steps > 0).any() and (steps < 0).any()  # the rate went up and down
+
+
+@pytest.mark.filterwarnings("ignore:You have specified a mini-batch size")
+def test_truncated_years_on_dam_are_bootstrapped_and_normalised_as_sb3_does(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Ten-day years, two iterations of three years each (33 rows with their autoreset rows, SB3's 30).
+
+    The valid rows equal SB3's: each year's last reward bootstrapped with the value of its final observation,
+    that observation left out of the statistics, the reset one merged. One difference is by design (see
+    :mod:`gym4real.rl.rollout_kernel`): SB3 normalises the final observation after merging the reset one,
+    the JAX trainer before (it arrives a step later), so the bootstrap values differ by the weight of one
+    observation in the statistics (here 1 in 11 to 61; in a paper run 1 in hundreds to hundreds of thousands):
+    advantages and returns to 2e-3, and the weights a step later to 1e-3.
+    """
+    for trainer, model, rows, valid, jax_kls, sb3_kls in _paired_iterations(tmp_path, monkeypatch, 10, 33, 33, 30, 2):
+        assert valid.sum() == 30 and not valid[[10, 21, 32]].any()
+        buffer = model.rollout_buffer
+        for ours, theirs, tol in (
+            ("obs", buffer.observations, 1e-5),
+            ("actions", buffer.actions, 1e-5),
+            ("old_log_prob", buffer.log_probs, 1e-5),
+            ("advantages", buffer.advantages, 2e-3),
+            ("returns", buffer.returns, 2e-3),
+        ):
+            _assert_near(rows[ours][valid], theirs, tol, ours)
+        _assert_state_matches(trainer, model, jax_kls, sb3_kls, 1e-3)
+
+
+def test_a_dam_model_acts_as_the_sb3_policy_that_selection_and_evaluate_run() -> None:
+    """The validation-selected checkpoint and the test scores rest on deterministic actions: a JAX model's equal
+    SB3's ``NormalizedPolicy`` (VecNormalize's statistics, the Gaussian's mean clipped to [-1, 1], mapped onto
+    the release box) for the same weights and statistics, inside and outside the clip ranges."""
+    from gym4real.rl.actor_critic import Normalization
+    from gym4real.rl.sb3 import NormalizedPolicy
+
+    env = gym.make(DAM)
+    box, space = env.action_space, env.observation_space
+    assert isinstance(box, gym.spaces.Box) and isinstance(space, gym.spaces.Box)
+    model = sb3.PPO(
+        "MlpPolicy",
+        gym.wrappers.RescaleAction(env, np.float32(-1.0), np.float32(1.0)),
+        policy_kwargs={"net_arch": [16, 16], "log_std_init": -0.5},
+        device="cpu",
+        seed=0,
+    )
+    with torch.no_grad():
+        model.policy.action_net.weight.mul_(300.0)  # a trained head's size: some means beyond [-1, 1]
+    rng = np.random.default_rng(5)
+    dim = space.shape[0]
+    mean, var = rng.normal(0, 50, dim), rng.uniform(0.5, 400, dim)
+    stats = {"mean": mean, "var": var, "count": np.array(99.0), "clip_obs": np.array(5.0), "epsilon": np.array(1e-8)}
+    obs = (mean + rng.normal(0, 8, (200, dim)) * np.sqrt(var)).astype(np.float32)  # some beyond the obs clip
+    arch = architecture(space, box, {"net_arch": [16, 16]})
+    ours = Model(arch, _params_of(model), Normalization(mean, var, 99.0, 5.0), space, box, True)
+    theirs = NormalizedPolicy(model, stats, box).actions(obs)
+    actions = ours.actions(obs)
+    assert (actions == box.low[0]).any() and (actions == box.high[0]).any()
+    assert ours.normalization is not None and (np.abs(ours.normalization(obs)) == 5.0).any()
+    np.testing.assert_allclose(actions, theirs, rtol=1e-5, atol=1e-3)
+
+
 def _arrays(path: Path) -> dict[str, np.ndarray]:
     with np.load(path, allow_pickle=False) as data:
         return {k: data[k] for k in data.files}

@@ -12,7 +12,10 @@ is marked invalid: it holds no transition, and the update leaves it out. Its for
 ended episode's final observation, so its value is the one a truncated episode's last reward is
 bootstrapped with (SB3's ``reward += gamma * V(terminal_observation)``). Those final observations are left
 out of the running statistics, as VecNormalize, which never sees them among the returned observations,
-leaves them out.
+leaves them out. One timing differs: VecNormalize merges the reset observation (returned in the same step)
+before it normalises the final one, while here the reset observation arrives a step later, so the final
+observation is normalised without it: the statistics it is normalised with lack one observation of their
+count (tested against SB3 on dam, ``tests/test_jax_ppo.py``).
 """
 
 from __future__ import annotations
