@@ -16,7 +16,7 @@ from scipy import stats as sps
 import gym4real
 from gym4real.bench import plots
 from gym4real.bench.benchmark import FEW_EPISODES, BenchmarkResult, benchmark, protocol, short_label
-from gym4real.bench.upper_reference import label
+from gym4real.bench.upper_label import label
 from gym4real.cli import main
 from gym4real.core.registry import registry
 from gym4real.results import analysis

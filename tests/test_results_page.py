@@ -14,7 +14,7 @@ import pytest
 
 from gym4real.bench import stats
 from gym4real.bench.numbers import human, human_interval
-from gym4real.bench.upper_reference import label
+from gym4real.bench.upper_label import label
 from gym4real.core.registry import registry
 from gym4real.results.analysis import analyse
 from gym4real.results.headroom_page import HEADER as HEADROOM_HEADER

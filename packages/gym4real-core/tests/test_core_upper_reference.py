@@ -182,7 +182,7 @@ def test_the_share_of_the_headroom_closed_runs_from_random_to_the_upper_referenc
 
 
 def test_figures_name_an_upper_reference_with_its_kind() -> None:
-    from gym4real.bench.upper_reference import label
+    from gym4real.bench.upper_label import label
 
     assert label(TRADING, "hindsight") == "hindsight (non-causal upper reference, exact)"
     assert label("gym4real/robofeeder-planning-v0", "oracle") == "oracle (non-causal upper reference, not a bound)"

@@ -79,7 +79,7 @@ def overlapping(curves: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]], to
 
 def figure_labels(result: BenchmarkResult) -> dict[str, str]:
     """Policy -> its label in the figures: the short label, an upper reference's with its kind."""
-    from gym4real.bench.upper_reference import label
+    from gym4real.bench.upper_label import label
 
     upper = set(upper_references(result))
     return {n: label(result.env_id, n) if n in upper else short for n, short in result.labels.items()}

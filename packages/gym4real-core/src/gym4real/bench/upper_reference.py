@@ -39,7 +39,7 @@ import numpy as np
 
 from gym4real.bench.progress import NOTICES
 from gym4real.core.errors import ConfigError
-from gym4real.core.registry import MARK, base_env, non_causal, registry, upper_reference
+from gym4real.core.registry import base_env, non_causal, registry, upper_reference
 
 #: The name a domain gives its hindsight planner.
 HINDSIGHT = "hindsight"
@@ -116,20 +116,6 @@ def headroom(upper: np.ndarray, agent: np.ndarray, agent_trained: bool = True) -
 def bound_references(env_id: str) -> list[str]:
     """The upper references of an environment that bound what a controller can score (``exact``, ``heuristic``)."""
     return [name for name in non_causal(env_id) if upper_reference(env_id, name).is_bound]
-
-
-def label(env_id: str, name: str) -> str:
-    """A policy's name in figures: an upper reference's with its mark and kind.
-
-    For example ``hindsight (non-causal upper reference, exact)``.
-    """
-    if name not in non_causal(env_id):
-        return name
-    spec = upper_reference(env_id, name)
-    kind = (
-        f"heuristic, gap {100 * spec.gap:.2g} %" if spec.bound == "heuristic" and spec.gap is not None else spec.bound
-    )
-    return f"{name} ({MARK}, {kind})"
 
 
 def headroom_closed(

@@ -137,7 +137,7 @@ def profile_figure(episodes: pd.DataFrame, path: Path, title: str) -> None:
     import matplotlib.pyplot as plt
 
     from gym4real.bench.plots import LINESTYLES, MARKERS
-    from gym4real.bench.upper_reference import label
+    from gym4real.bench.upper_label import label
 
     scores, seeds = _read(episodes)
     same = identical_to(scores)

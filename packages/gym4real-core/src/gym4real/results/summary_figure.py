@@ -65,7 +65,7 @@ def limits(summary: pd.DataFrame) -> tuple[float, float]:
 
 def _labels(env_id: str, summary: pd.DataFrame) -> list[str]:
     """The y labels of a panel: each policy, an agent marked, an upper reference with its kind."""
-    from gym4real.bench.upper_reference import label
+    from gym4real.bench.upper_label import label
 
     kinds = zip(summary["policy"], summary["kind"], strict=True)
     return [f"{name} (agent)" if kind == "agent" else label(env_id, name) for name, kind in kinds]
