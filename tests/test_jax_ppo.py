@@ -425,18 +425,25 @@ def _arrays(path: Path) -> dict[str, np.ndarray]:
         return {k: data[k] for k in data.files}
 
 
-def test_a_resumed_run_equals_an_uninterrupted_one(tmp_path: Path) -> None:
-    preset = _tiny(tmp_path)
-    whole = train(DAM, "ppo", preset, seed=1, out=tmp_path / "whole", trainer="jax")
+#: Evaluations at 64, 128 and 192 steps and at the end.
+EVERY_64 = TINY_DAM.replace("eval_freq: 128", "eval_freq: 64")
+
+
+@pytest.mark.parametrize("beside", [False, True])
+def test_a_resumed_run_equals_an_uninterrupted_one(tmp_path: Path, beside: bool) -> None:
+    """Cut while its checkpoint's evaluation is pending, resumed in the other mode of evaluation."""
+    preset = _tiny(tmp_path, EVERY_64)
+    whole = train(DAM, "ppo", preset, seed=1, out=tmp_path / "whole", trainer="jax", eval_beside=beside)
 
     def stop(done: int, total: int) -> None:
         if done >= 192:
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        train(DAM, "ppo", preset, seed=1, out=tmp_path / "cut", progress=stop, trainer="jax")
-    assert (tmp_path / "cut" / "checkpoint" / "state.json").exists()
-    resumed = train(DAM, "ppo", preset, seed=1, out=tmp_path / "cut", trainer="jax")
+        train(DAM, "ppo", preset, seed=1, out=tmp_path / "cut", progress=stop, trainer="jax", eval_beside=beside)
+    state = json.loads((tmp_path / "cut" / "checkpoint" / "state.json").read_text())
+    assert state["timesteps"] == 128 and state["pending"]
+    resumed = train(DAM, "ppo", preset, seed=1, out=tmp_path / "cut", trainer="jax", eval_beside=not beside)
     a, b = _arrays(whole.model_path), _arrays(resumed.model_path)
     assert a.keys() == b.keys() and all(np.array_equal(a[k], b[k]) for k in a)
     assert whole.curve_csv.read_text() == resumed.curve_csv.read_text()
@@ -444,6 +451,46 @@ def test_a_resumed_run_equals_an_uninterrupted_one(tmp_path: Path) -> None:
     assert record["trainer"] == "jax" and record["resumes"][0]["at"] == 128
     assert {"jax", "jaxlib", "optax"} <= set(record["versions"])
     assert whole.policy == f"ppo-jax:{whole.model_path}"
+
+
+def test_evaluations_beside_training_give_the_curve_and_the_model_of_in_line_ones(tmp_path: Path) -> None:
+    preset = _tiny(tmp_path, EVERY_64)
+    runs = [train(DAM, "ppo", preset, seed=3, out=tmp_path / f"{b}", trainer="jax", eval_beside=b) for b in (0, 1)]
+    inline, beside = _arrays(runs[0].model_path), _arrays(runs[1].model_path)
+    assert inline.keys() == beside.keys() and all(np.array_equal(inline[k], beside[k]) for k in inline)
+    curve = runs[0].curve_csv.read_text()
+    assert curve == runs[1].curve_csv.read_text() and len(curve.splitlines()) == 1 + 4
+    assert runs[0].eval_steps == runs[1].eval_steps == 4 * 2 * 10  # two 10-day episodes an evaluation
+    with pytest.raises(ConfigError, match="JAX trainer's"):
+        train(DAM, "ppo", preset, out=tmp_path / "sb3", eval_beside=True)
+
+
+def test_a_dead_evaluation_worker_costs_no_result(tmp_path: Path) -> None:
+    from gym4real.rl.checkpoint_evaluations import CheckpointEvaluations
+
+    trainer = JaxPPO(DAM, load_preset(DAM, "ppo", _tiny(tmp_path)), seed=0)
+    snapshots = [trainer.model()]
+    trainer.start_episodes()
+    trainer.iteration()
+    snapshots.append(trainer.model())
+    kwargs = {"preset": "validation", "sim_horizon": 10}
+    inline = CheckpointEvaluations(DAM, kwargs, 2, 7, beside=False)
+    beside = CheckpointEvaluations(DAM, kwargs, 2, 7, beside=True)
+    for k, model in enumerate(snapshots):
+        inline.submit(k, model)
+    expected = list(inline.results())
+    beside.submit(0, snapshots[0])
+    got = list(beside.results())
+    beside._worker.kill()  # killed between two evaluations
+    beside._worker.join()
+    with pytest.warns(RuntimeWarning, match="evaluation worker died"):
+        beside.submit(1, snapshots[1])
+    got += list(beside.results())
+    assert [t for t, _, _ in got] == [0, 1] and not beside.beside
+    for (_, _, a), (_, _, b) in zip(expected, got, strict=True):
+        assert len(a) == 2 and all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
+    inline.close()
+    beside.close()
 
 
 _RUN = """
