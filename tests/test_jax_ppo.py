@@ -580,3 +580,11 @@ def test_reproduce_with_the_jax_trainer_labels_its_section_runs_and_models(tmp_p
     assert "published-ppo-jax=ppo-jax:" in listing["evaluate"]
     report = json.loads((section / "report.json").read_text())
     assert report["presets"] == {"ppo-jax": "smoke"} and report["command"].endswith("--trainer jax")
+    assert report["fingerprints"]["trainer"]["trainer"] == "jax"
+    from gym4real.results.currency import check
+    from gym4real.results.results_page import write_page
+
+    text = write_page(tmp_path, tmp_path / "page").read_text()
+    assert "## `gym4real/dam-v0`, budget `quick`, trainer `ppo-jax` (PPO trained by JAX)" in text
+    found = check(tmp_path / "page")  # its files as listed, its fingerprints the JAX trainer's
+    assert found.lines == ["dam-v0-quick-jax: current"] and not found.damaged
