@@ -33,9 +33,10 @@ evaluation of a snapshot of the policy and the preset's training iterations betw
 (``eval_freq / (n_steps * n_envs)``, rounded); the wall and this process's CPU seconds of a round are timed
 in-line (the evaluation, then the iterations) and beside (the snapshot sent to the worker, the iterations,
 then its results taken, waiting if they are not in), the mean of ``--iterations`` rounds after an untimed one
-(the worker's start, the first calls). The saving per iteration is the difference of the wall seconds of a
-round over its iterations. Beside needs a second idle core: on a loaded machine the worker competes with
-the other processes and saves less.
+(the worker's start, the first calls). The saving per iteration is the difference of a round's seconds
+over its iterations: in wall time, and in CPU time of this process (the training process's own work, which
+a loaded machine does not inflate). Beside needs a second idle core: on a loaded machine the worker competes
+with the other processes and the wall time saves less.
 
     python benchmarks/bench_training.py [--presets gym4real/dam-v0:ppo:paper,...] [--steps 20000]
     python benchmarks/bench_training.py --end-to-end [--steps 16384] [--json out.json]
@@ -370,6 +371,7 @@ def _evaluation_rounds(item: str, env_kwargs: dict[str, Any] | None, rounds: int
         row[f"{mode} CPU s/round"] = clock.cpu["round"] / rounds
     trainer.close()
     row["saved wall s/iteration"] = (row["in-line wall s/round"] - row["beside wall s/round"]) / between
+    row["saved CPU s/iteration"] = (row["in-line CPU s/round"] - row["beside CPU s/round"]) / between
     return row
 
 

@@ -453,6 +453,7 @@ def test_a_resumed_run_equals_an_uninterrupted_one(tmp_path: Path, beside: bool)
     assert whole.policy == f"ppo-jax:{whole.model_path}"
 
 
+@pytest.mark.filterwarnings("error:the evaluation worker died:RuntimeWarning")  # the worker, not the fallback
 def test_evaluations_beside_training_give_the_curve_and_the_model_of_in_line_ones(tmp_path: Path) -> None:
     preset = _tiny(tmp_path, EVERY_64)
     runs = [train(DAM, "ppo", preset, seed=3, out=tmp_path / f"{b}", trainer="jax", eval_beside=b) for b in (0, 1)]
@@ -482,7 +483,7 @@ def test_a_dead_evaluation_worker_costs_no_result(tmp_path: Path) -> None:
     beside.submit(0, snapshots[0])
     got = list(beside.results())
     beside._worker.kill()  # killed between two evaluations
-    beside._worker.join()
+    beside._worker.wait()
     with pytest.warns(RuntimeWarning, match="evaluation worker died"):
         beside.submit(1, snapshots[1])
     got += list(beside.results())

@@ -8,6 +8,7 @@ import shutil
 from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -193,6 +194,26 @@ def test_the_check_compares_a_jax_section_with_the_jax_trainers_fingerprints(tmp
     write_page(out, page)
     (line,) = [line for line in check(page).lines if line.startswith(jax.name)]
     assert line.startswith(f"{jax.name}: stale: ") and "trainer.trainer: new" in line
+
+
+def test_stale_reruns_a_jax_section_by_its_trainer_and_moves_aside_its_runs_alone(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from gym4real.results import currency, reproduce
+
+    out = tmp_path / "out"
+    _jax_section(out, "paper")  # no fingerprints recorded: stale, trained again
+    runs = out / "wds-v0" / "paper" / "runs"
+    for agent in ("dqn", "ppo-jax"):
+        (runs / agent / "seed0").mkdir(parents=True)
+    calls: list[tuple[Any, ...]] = []
+    monkeypatch.setattr(reproduce, "reproduce", lambda *args, **kwargs: calls.append((args, kwargs)) or "rerun")
+    said = currency.reproduce_stale(out)
+    assert said.startswith("wds-v0-paper-jax: stale (no fingerprints recorded); its runs moved to runs.stale-")
+    (aside,) = runs.parent.glob("runs.stale-*")
+    assert [p.name for p in aside.iterdir()] == ["ppo-jax"] and (runs / "dqn" / "seed0").is_dir()  # SB3's stay
+    ((args, kwargs),) = calls
+    assert args[:2] == (["gym4real/wds-v0"], "paper") and kwargs["trainer"] == "jax"
 
 
 def _matrices(path: Path) -> tuple[dict[str, np.ndarray], set[str]]:

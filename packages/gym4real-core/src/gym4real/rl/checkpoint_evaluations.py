@@ -3,25 +3,30 @@
 At each evaluation point the trainer hands a snapshot of its policy to :class:`CheckpointEvaluations` (a
 :class:`~gym4real.rl.actor_critic.Model`: a copy of the parameters and of the observation statistics) and
 trains on; it takes the results, in the order the snapshots went, at the next evaluation point and at the
-end. Beside training, a worker process (started with ``spawn``) runs the validation episodes in its own
-:class:`~gym4real.rl.evaluation.BatchEvaluation`; in-line, this process runs them when the results are
-taken. Either way each snapshot runs the same seeded episodes with the same numpy forward pass of the same
-arrays: the rewards are the same bit for bit, and so are the learning curve and the selected model.
+end. Beside training, a worker process (``python -m gym4real.rl.checkpoint_evaluations``, fed through two
+pipes: it imports nothing of the caller's, so a script that trains needs no ``if __name__ == "__main__"``
+guard) runs the validation episodes in its own :class:`~gym4real.rl.evaluation.BatchEvaluation`; in-line,
+this process runs them when the results are taken. Either way each snapshot runs the same seeded episodes
+with the same numpy forward pass of the same arrays: the rewards are the same bit for bit, and so are the
+learning curve and the selected model.
 
 Evaluations run beside training by default where they can help: when this process may use two cores or
-more and is not itself a daemonic worker (those of ``gym4real reproduce --jobs N``, which book the cores
-and may not start processes). A worker that dies (killed, out of memory, an error in the episodes) costs
-no result: the snapshots it had not answered are evaluated in-line, and so are the next ones (an error of
-the episodes themselves is then raised here).
+more (on POSIX systems). ``gym4real reproduce --jobs N`` (N > 1) and its Ray runs evaluate in-line: their
+runs book every core. The worker stops when told, or when the training process is gone. A worker that dies
+(killed, out of memory, an error in the episodes) costs no result: the snapshots it had not answered are
+evaluated in-line, and so are the next ones (an error of the episodes themselves is then raised here).
 """
 
 from __future__ import annotations
 
-import contextlib
-import multiprocessing
+import os
+import signal
+import subprocess
+import sys
 import warnings
 from collections import deque
 from collections.abc import Iterator
+from multiprocessing.connection import Connection
 from typing import Any
 
 import numpy as np
@@ -32,18 +37,22 @@ from gym4real.rl.evaluation import BatchEvaluation
 
 
 def beside_by_default() -> bool:
-    """Whether evaluations run beside training when not told: two cores or more, and not a daemonic worker."""
-    return available_cpus() >= 2 and not multiprocessing.current_process().daemon
+    """Whether evaluations run beside training when not told: on POSIX, where this process may use two cores."""
+    return os.name == "posix" and available_cpus() >= 2
 
 
-def _serve(connection: Any, env_id: str, env_kwargs: dict[str, Any], episodes: int, seed: int) -> None:
-    """The worker process: evaluate each snapshot it receives and send back its rewards, until ``None``."""
-    evaluation = BatchEvaluation(env_id, env_kwargs, episodes, seed)
+def serve(requests: Connection, replies: Connection) -> None:
+    """The worker: the episodes' arguments, then each snapshot's rewards sent back, until ``None`` or the end."""
+    evaluation = None
     try:
-        while (model := connection.recv()) is not None:
-            connection.send(evaluation.run(model))
+        evaluation = BatchEvaluation(*requests.recv())
+        while (model := requests.recv()) is not None:
+            replies.send(evaluation.run(model))
+    except EOFError:  # the training process is gone
+        pass
     finally:
-        evaluation.close()
+        if evaluation is not None:
+            evaluation.close()
 
 
 class CheckpointEvaluations:
@@ -61,13 +70,17 @@ class CheckpointEvaluations:
         self._episodes = (env_id, dict(env_kwargs), episodes, seed)
         self._here: BatchEvaluation | None = None
         self._pending: deque[tuple[int, Model]] = deque()
-        self._worker: Any = None
+        self._worker: subprocess.Popen[bytes] | None = None
         if beside:
-            context = multiprocessing.get_context("spawn")
-            self._connection, child = context.Pipe()
-            self._worker = context.Process(target=_serve, args=(child, *self._episodes), daemon=True)
-            self._worker.start()
-            child.close()
+            request_read, request_write = os.pipe()
+            reply_read, reply_write = os.pipe()
+            fds = (request_read, reply_write)
+            self._worker = subprocess.Popen([sys.executable, "-m", __name__, *map(str, fds)], pass_fds=fds)
+            os.close(request_read)
+            os.close(reply_write)
+            self._requests = Connection(request_write, readable=False)
+            self._replies = Connection(reply_read, writable=False)
+            self._send(self._episodes)
 
     @property
     def beside(self) -> bool:
@@ -76,11 +89,7 @@ class CheckpointEvaluations:
 
     def submit(self, timesteps: int, model: Model) -> None:
         """Evaluate ``model`` (a snapshot: it must not change), the policy after ``timesteps`` training steps."""
-        if self._worker is not None:
-            try:
-                self._connection.send(model)
-            except OSError:  # the worker died (BrokenPipeError)
-                self._lost()
+        self._send(model)
         self._pending.append((timesteps, model))
 
     def results(self) -> Iterator[tuple[int, Model, list[np.ndarray]]]:
@@ -89,10 +98,17 @@ class CheckpointEvaluations:
             timesteps, model = self._pending.popleft()
             yield timesteps, model, self._rewards(model)
 
+    def _send(self, message: Any) -> None:
+        if self._worker is not None:
+            try:
+                self._requests.send(message)
+            except OSError:  # the worker died (BrokenPipeError)
+                self._lost()
+
     def _rewards(self, model: Model) -> list[np.ndarray]:
         if self._worker is not None:
             try:
-                rewards: list[np.ndarray] = self._connection.recv()
+                rewards: list[np.ndarray] = self._replies.recv()
                 return rewards
             except (EOFError, OSError):
                 self._lost()
@@ -102,26 +118,35 @@ class CheckpointEvaluations:
 
     def _lost(self) -> None:
         """The worker died: say so, and evaluate in-line from now on."""
-        self._worker.join()
+        assert self._worker is not None
+        code = self._worker.wait()
         warnings.warn(
-            f"the evaluation worker died (exit code {self._worker.exitcode}); evaluating in-line",
-            RuntimeWarning,
-            stacklevel=3,
+            f"the evaluation worker died (exit status {code}); evaluating in-line", RuntimeWarning, stacklevel=4
         )
-        self._connection.close()
+        self._stop()
+
+    def _stop(self) -> None:
+        self._requests.close()
+        self._replies.close()
         self._worker = None
 
     def close(self) -> None:
         """Stop the worker (unanswered snapshots are dropped) and close the environments."""
         if self._worker is not None:
+            worker = self._worker
             if not self._pending:  # else it may be evaluating, or waiting to send results no one will read
-                with contextlib.suppress(OSError):
-                    self._connection.send(None)
-                self._worker.join(timeout=10)
-            if self._worker.is_alive():
-                self._worker.kill()
-                self._worker.join()
-            self._connection.close()
-            self._worker = None
+                self._send(None)
+            if self._worker is not None:
+                try:
+                    worker.wait(timeout=0 if self._pending else 10)
+                except subprocess.TimeoutExpired:
+                    worker.kill()
+                    worker.wait()
+                self._stop()
         if self._here is not None:
             self._here.close()
+
+
+if __name__ == "__main__":
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C stops the training process, which closes the pipes
+    serve(Connection(int(sys.argv[1]), writable=False), Connection(int(sys.argv[2]), readable=False))
