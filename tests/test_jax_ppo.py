@@ -454,14 +454,28 @@ def test_a_resumed_run_equals_an_uninterrupted_one(tmp_path: Path, beside: bool)
 
 
 @pytest.mark.filterwarnings("error:the evaluation worker died:RuntimeWarning")  # the worker, not the fallback
-def test_evaluations_beside_training_give_the_curve_and_the_model_of_in_line_ones(tmp_path: Path) -> None:
+def test_evaluations_beside_training_give_the_curve_and_the_model_of_in_line_ones(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from gym4real.cli import main
+    from gym4real.rl import checkpoint_evaluations
+
+    made = checkpoint_evaluations.CheckpointEvaluations
+    beside_or_not: list[bool] = []
+    monkeypatch.setattr(
+        checkpoint_evaluations, "CheckpointEvaluations", lambda *a: beside_or_not.append(a[-1]) or made(*a)
+    )
     preset = _tiny(tmp_path, EVERY_64)
-    runs = [train(DAM, "ppo", preset, seed=3, out=tmp_path / f"{b}", trainer="jax", eval_beside=b) for b in (0, 1)]
-    inline, beside = _arrays(runs[0].model_path), _arrays(runs[1].model_path)
+    command = ["train", DAM, "--algo", "ppo", "--trainer", "jax", "--preset", preset, "--seed", "3", "--quiet"]
+    assert main([*command, "--out", str(tmp_path / "inline"), "--no-eval-beside"]) == 0
+    run = train(DAM, "ppo", preset, seed=3, out=tmp_path / "beside", trainer="jax", eval_beside=True)
+    assert beside_or_not == [False, True]
+    inline, beside = _arrays(tmp_path / "inline" / "model.npz"), _arrays(run.model_path)
     assert inline.keys() == beside.keys() and all(np.array_equal(inline[k], beside[k]) for k in inline)
-    curve = runs[0].curve_csv.read_text()
-    assert curve == runs[1].curve_csv.read_text() and len(curve.splitlines()) == 1 + 4
-    assert runs[0].eval_steps == runs[1].eval_steps == 4 * 2 * 10  # two 10-day episodes an evaluation
+    curve = (tmp_path / "inline" / "curve.csv").read_text()
+    assert curve == run.curve_csv.read_text() and len(curve.splitlines()) == 1 + 4
+    record = json.loads((tmp_path / "inline" / "run.json").read_text())
+    assert record["eval_steps"] == run.eval_steps == 4 * 2 * 10  # two 10-day episodes an evaluation
     with pytest.raises(ConfigError, match="JAX trainer's"):
         train(DAM, "ppo", preset, out=tmp_path / "sb3", eval_beside=True)
 
