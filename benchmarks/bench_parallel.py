@@ -33,8 +33,9 @@ sys.path.insert(0, str(Path(__file__).parent))
 
 from report import report
 
+from gym4real.bench.versions import available_cpus
 from gym4real.results.plan import Item, plan
-from gym4real.results.runner import THREAD_LIMITS, available_cpus, train_plan
+from gym4real.results.runner import THREAD_LIMITS, train_plan
 
 
 def _same(a: Item, b: Item) -> bool:

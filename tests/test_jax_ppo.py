@@ -627,18 +627,25 @@ def _arrays(path: Path) -> dict[str, np.ndarray]:
         return {k: data[k] for k in data.files}
 
 
-def test_a_resumed_run_equals_an_uninterrupted_one(tmp_path: Path) -> None:
-    preset = _tiny(tmp_path)
-    whole = train(DAM, "ppo", preset, seed=1, out=tmp_path / "whole", trainer="jax")
+#: Evaluations at 64, 128 and 192 steps and at the end.
+EVERY_64 = TINY_DAM.replace("eval_freq: 128", "eval_freq: 64")
+
+
+@pytest.mark.parametrize("beside", [False, True])
+def test_a_resumed_run_equals_an_uninterrupted_one(tmp_path: Path, beside: bool) -> None:
+    """Cut while its checkpoint's evaluation is pending, resumed in the other mode of evaluation."""
+    preset = _tiny(tmp_path, EVERY_64)
+    whole = train(DAM, "ppo", preset, seed=1, out=tmp_path / "whole", trainer="jax", eval_beside=beside)
 
     def stop(done: int, total: int) -> None:
         if done >= 192:
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        train(DAM, "ppo", preset, seed=1, out=tmp_path / "cut", progress=stop, trainer="jax")
-    assert (tmp_path / "cut" / "checkpoint" / "state.json").exists()
-    resumed = train(DAM, "ppo", preset, seed=1, out=tmp_path / "cut", trainer="jax")
+        train(DAM, "ppo", preset, seed=1, out=tmp_path / "cut", progress=stop, trainer="jax", eval_beside=beside)
+    state = json.loads((tmp_path / "cut" / "checkpoint" / "state.json").read_text())
+    assert state["timesteps"] == 128 and state["pending"]
+    resumed = train(DAM, "ppo", preset, seed=1, out=tmp_path / "cut", trainer="jax", eval_beside=not beside)
     a, b = _arrays(whole.model_path), _arrays(resumed.model_path)
     assert a.keys() == b.keys() and all(np.array_equal(a[k], b[k]) for k in a)
     assert whole.curve_csv.read_text() == resumed.curve_csv.read_text()
@@ -646,6 +653,61 @@ def test_a_resumed_run_equals_an_uninterrupted_one(tmp_path: Path) -> None:
     assert record["trainer"] == "jax" and record["resumes"][0]["at"] == 128
     assert {"jax", "jaxlib", "optax"} <= set(record["versions"])
     assert whole.policy == f"ppo-jax:{whole.model_path}"
+
+
+@pytest.mark.filterwarnings("error:the evaluation worker died:RuntimeWarning")  # the worker, not the fallback
+def test_evaluations_beside_training_give_the_curve_and_the_model_of_in_line_ones(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from gym4real.cli import main
+    from gym4real.rl import checkpoint_evaluations
+
+    made = checkpoint_evaluations.CheckpointEvaluations
+    beside_or_not: list[bool] = []
+    monkeypatch.setattr(
+        checkpoint_evaluations, "CheckpointEvaluations", lambda *a: beside_or_not.append(a[-1]) or made(*a)
+    )
+    preset = _tiny(tmp_path, EVERY_64)
+    command = ["train", DAM, "--algo", "ppo", "--trainer", "jax", "--preset", preset, "--seed", "3", "--quiet"]
+    assert main([*command, "--out", str(tmp_path / "inline"), "--no-eval-beside"]) == 0
+    run = train(DAM, "ppo", preset, seed=3, out=tmp_path / "beside", trainer="jax", eval_beside=True)
+    assert beside_or_not == [False, True]
+    inline, beside = _arrays(tmp_path / "inline" / "model.npz"), _arrays(run.model_path)
+    assert inline.keys() == beside.keys() and all(np.array_equal(inline[k], beside[k]) for k in inline)
+    curve = (tmp_path / "inline" / "curve.csv").read_text()
+    assert curve == run.curve_csv.read_text() and len(curve.splitlines()) == 1 + 4
+    record = json.loads((tmp_path / "inline" / "run.json").read_text())
+    assert record["eval_steps"] == run.eval_steps == 4 * 2 * 10  # two 10-day episodes an evaluation
+    with pytest.raises(ConfigError, match="JAX trainer's"):
+        train(DAM, "ppo", preset, out=tmp_path / "sb3", eval_beside=True)
+
+
+def test_a_dead_evaluation_worker_costs_no_result(tmp_path: Path) -> None:
+    from gym4real.rl.checkpoint_evaluations import CheckpointEvaluations
+
+    trainer = JaxPPO(DAM, load_preset(DAM, "ppo", _tiny(tmp_path)), seed=0)
+    snapshots = [trainer.model()]
+    trainer.start_episodes()
+    trainer.iteration()
+    snapshots.append(trainer.model())
+    kwargs = {"preset": "validation", "sim_horizon": 10}
+    inline = CheckpointEvaluations(DAM, kwargs, 2, 7, beside=False)
+    beside = CheckpointEvaluations(DAM, kwargs, 2, 7, beside=True)
+    for k, model in enumerate(snapshots):
+        inline.submit(k, model)
+    expected = list(inline.results())
+    beside.submit(0, snapshots[0])
+    got = list(beside.results())
+    beside._worker.kill()  # killed between two evaluations
+    beside._worker.wait()
+    with pytest.warns(RuntimeWarning, match="evaluation worker died"):
+        beside.submit(1, snapshots[1])
+    got += list(beside.results())
+    assert [t for t, _, _ in got] == [0, 1] and not beside.beside
+    for (_, _, a), (_, _, b) in zip(expected, got, strict=True):
+        assert len(a) == 2 and all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
+    inline.close()
+    beside.close()
 
 
 _RUN = """
@@ -735,3 +797,11 @@ def test_reproduce_with_the_jax_trainer_labels_its_section_runs_and_models(tmp_p
     assert "published-ppo-jax=ppo-jax:" in listing["evaluate"]
     report = json.loads((section / "report.json").read_text())
     assert report["presets"] == {"ppo-jax": "smoke"} and report["command"].endswith("--trainer jax")
+    assert report["fingerprints"]["trainer"]["trainer"] == "jax"
+    from gym4real.results.currency import check
+    from gym4real.results.results_page import write_page
+
+    text = write_page(tmp_path, tmp_path / "page").read_text()
+    assert "## `gym4real/dam-v0`, budget `quick`, trainer `ppo-jax` (PPO trained by JAX)" in text
+    found = check(tmp_path / "page")  # its files as listed, its fingerprints the JAX trainer's
+    assert found.lines == ["dam-v0-quick-jax: current"] and not found.damaged

@@ -120,9 +120,10 @@ def test_with_two_jobs_this_process_trains_from_the_plans_end_while_its_worker_s
     here: list[Item] = []
     original = runner.run_item
 
-    def run_item(item: Item, progress: Any = None) -> Any:
+    def run_item(item: Item, progress: Any = None, eval_beside: bool | None = None) -> Any:
+        assert eval_beside is False  # beside workers, the JAX trainer evaluates in-line: the runs book the cores
         here.append(item)
-        return original(item, progress)
+        return original(item, progress, eval_beside)
 
     monkeypatch.setattr(runner, "run_item", run_item)
     outcomes = train_plan(items, jobs=2)

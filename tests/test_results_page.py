@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import json
 import re
+import shutil
 from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -119,6 +121,101 @@ def _results_folder(out: Path, budget: str, version: str = "v1.0-3-gabc1234") ->
     (folder / "report.json").write_text(json.dumps(report))
     analyse(folder, "gym4real/wds-v0", budget)
     return folder
+
+
+def _jax_section(out: Path, budget: str) -> Path:
+    """:func:`_results_folder`'s runs as a section of the JAX trainer's (``wds-v0-<budget>-jax``, agent ``ppo-jax``)."""
+    folder = _results_folder(out / "made", budget).rename(out / f"wds-v0-{budget}-jax")
+    for name, column in (("episodes.csv", "policy"), ("runs.csv", "algo")):
+        frame = pd.read_csv(folder / name)
+        frame[column] = frame[column].replace("dqn", "ppo-jax")
+        frame.to_csv(folder / name, index=False)
+    report = json.loads((folder / "report.json").read_text())
+    report["presets"], report["command"] = {"ppo-jax": budget}, report["command"] + " --trainer jax"
+    (folder / "report.json").write_text(json.dumps(report))
+    analyse(folder, "gym4real/wds-v0", budget)
+    (out / "made").rmdir()
+    return folder
+
+
+def _with_fingerprints(folder: Path, trainer: str) -> None:
+    """Record the installed fingerprints of ``trainer``'s section in ``folder``'s report."""
+    from gym4real.results.fingerprints import KEY, fingerprints
+
+    report = json.loads((folder / "report.json").read_text())
+    report[KEY] = fingerprints(report["env_id"], report["budget"], trainer)
+    (folder / "report.json").write_text(json.dumps(report))
+
+
+def test_a_jax_section_is_a_section_of_its_own_labelled_by_its_trainer(tmp_path: Path) -> None:
+    out, page = tmp_path / "out", tmp_path / "page"
+    sb3, jax = _results_folder(out, "paper"), _jax_section(out, "paper")
+    text = write_page(out, page).read_text()
+    heading = "## `gym4real/wds-v0`, budget `paper`, trainer `ppo-jax` (PPO trained by JAX)"
+    assert text.index("## `gym4real/wds-v0`, budget `paper`\n") < text.index(heading)
+    own = text[text.index(heading) :]
+    assert "| ppo-jax | 3 | 20 |" in own and "| dqn | 3 |" not in own and "--trainer jax" in own
+    assert "| ppo-jax | `wds-v0` | 3 |" in text and text.count("`gym4real/wds-v0`: 0 = random") == 1  # suite score
+    # the page's verdicts are the reference trainer's: the JAX section's claims show in its own section
+    assert json.loads((page / "claims.json").read_text()) == json.loads((sb3 / "claims.json").read_text())
+    manifest = json.loads((page / "manifest.json").read_text())
+    assert set(manifest["provenance"]) == {sb3.name, jax.name}
+    from gym4real.results.artefacts import verify
+
+    assert verify(page).problems == {}
+    (page / jax.name / "summary.csv").write_text("changed")
+    problems = verify(page).problems
+    assert list(problems) == [jax.name] and problems[jax.name][0].startswith(f"{jax.name}/summary.csv changed")
+    shutil.copy(jax / "summary.csv", page / jax.name / "summary.csv")
+    assert write_page(page, page).read_text() == text  # the page folder alone regenerates the page
+
+
+def test_a_jax_section_alone_shows_its_quick_budget(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    _jax_section(out, "quick")
+    text = write_page(out).read_text()
+    assert "## `gym4real/wds-v0`, budget `quick`, trainer `ppo-jax` (PPO trained by JAX): pipeline check" in text
+
+
+def test_the_check_compares_a_jax_section_with_the_jax_trainers_fingerprints(tmp_path: Path) -> None:
+    from gym4real.results.currency import check
+    from gym4real.results.fingerprints import JAX_TRAINER_VERSION, fingerprints
+
+    out, page = tmp_path / "out", tmp_path / "page"
+    sb3, jax = _results_folder(out, "paper"), _jax_section(out, "paper")
+    _with_fingerprints(sb3, "sb3")
+    _with_fingerprints(jax, "jax")
+    recorded = json.loads((jax / "report.json").read_text())["fingerprints"]["trainer"]
+    assert recorded["trainer"] == "jax" and recorded["trainer_version"] == JAX_TRAINER_VERSION
+    assert {"jax", "jaxlib", "optax", "numba"} <= set(recorded) and "torch" not in recorded
+    assert "trainer" not in fingerprints("gym4real/wds-v0", "paper")["trainer"]  # the reference's, as it always was
+    write_page(out, page)
+    found = check(page)
+    assert found.lines == [f"{sb3.name}: current", f"{jax.name}: current"] and not found.damaged
+    _with_fingerprints(jax, "sb3")  # a JAX section that recorded the reference trainer's fingerprints
+    write_page(out, page)
+    (line,) = [line for line in check(page).lines if line.startswith(jax.name)]
+    assert line.startswith(f"{jax.name}: stale: ") and "trainer.trainer: new" in line
+
+
+def test_stale_reruns_a_jax_section_by_its_trainer_and_moves_aside_its_runs_alone(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from gym4real.results import currency, reproduce
+
+    out = tmp_path / "out"
+    _jax_section(out, "paper")  # no fingerprints recorded: stale, trained again
+    runs = out / "wds-v0" / "paper" / "runs"
+    for agent in ("dqn", "ppo-jax"):
+        (runs / agent / "seed0").mkdir(parents=True)
+    calls: list[tuple[Any, ...]] = []
+    monkeypatch.setattr(reproduce, "reproduce", lambda *args, **kwargs: calls.append((args, kwargs)) or "rerun")
+    said = currency.reproduce_stale(out)
+    assert said.startswith("wds-v0-paper-jax: stale (no fingerprints recorded); its runs moved to runs.stale-")
+    (aside,) = runs.parent.glob("runs.stale-*")
+    assert [p.name for p in aside.iterdir()] == ["ppo-jax"] and (runs / "dqn" / "seed0").is_dir()  # SB3's stay
+    ((args, kwargs),) = calls
+    assert args[:2] == (["gym4real/wds-v0"], "paper") and kwargs["trainer"] == "jax"
 
 
 def _matrices(path: Path) -> tuple[dict[str, np.ndarray], set[str]]:

@@ -75,6 +75,13 @@ def versions() -> dict[str, str]:
 NOT_RECORDED = "not recorded"
 
 
+def available_cpus() -> int:
+    """The cores this process may run on (``--jobs auto``; the JAX trainer's evaluations beside training)."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
+
+
 def cpu_model() -> str:
     """The CPU model of this machine: ``model name`` in ``/proc/cpuinfo`` (Linux), else the platform's processor.
 

@@ -51,7 +51,7 @@ def user_code_importable() -> None:
 
 def jobs(text: str) -> int:
     """``--jobs``: a positive number, or ``auto`` (the cores available to this process)."""
-    from gym4real.results.runner import available_cpus
+    from gym4real.bench.versions import available_cpus
 
     if text == "auto":
         return available_cpus()

@@ -19,6 +19,7 @@ def _train(args: argparse.Namespace) -> None:
         out=args.out,
         progress=not args.quiet,
         trainer=args.trainer,
+        eval_beside=args.eval_beside,
     )
     print(f"model written to {run.model_path}; learning curve in {run.curve_csv}")
 
@@ -39,6 +40,14 @@ def add(sub: Any) -> None:
         choices=TRAINERS,
         help="PPO's trainer: sb3 (Stable-Baselines3, the reference) or jax (the `jax` extra; envs with a native "
         "vector env: dam, microgrid, trading)",
+    )
+    train.add_argument(
+        "--eval-beside",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="--trainer jax: run the checkpoint evaluations in a second process beside training, from a snapshot "
+        "of the policy (default: when this process may use two cores or more); the curve and the selected model "
+        "are the same either way",
     )
     train.add_argument("--preset", default="paper", help="registered preset (paper, smoke) or a YAML file")
     train.add_argument("--seed", type=int, default=0, help="seed of the run (default 0)")

@@ -27,9 +27,20 @@ from typing import Any
 from gym4real.bench.published import LISTING
 from gym4real.core.datasets import sha256_of
 from gym4real.core.errors import Gym4RealError
+from gym4real.rl.train import TRAINERS
 
-#: The name of a results folder: ``<env>-<budget>``.
-FOLDER = re.compile(r"^(?P<env>[a-z0-9-]+)-(?P<budget>paper|quick)$")
+#: The name of a results folder: ``<env>-<budget>``, with ``-<trainer>`` for the runs of a PPO trainer other
+#: than SB3 (``<env>-<budget>-jax``: :func:`trainer_of`).
+FOLDER = re.compile(
+    rf"^(?P<env>[a-z0-9-]+)-(?P<budget>paper|quick)(?:-(?P<trainer>{'|'.join(t for t in TRAINERS if t != 'sb3')}))?$"
+)
+
+
+def trainer_of(name: str) -> str:
+    """The trainer of a results folder's runs, from its name: ``sb3``, or ``jax`` for ``<env>-<budget>-jax``."""
+    match = FOLDER.match(name)
+    return (match["trainer"] if match else None) or "sb3"
+
 
 #: The listing of a results folder's files.
 MANIFEST = "manifest.json"
@@ -58,7 +69,9 @@ def read_json(path: Path, where: str) -> Any:
     except UnicodeDecodeError as exc:
         raise DamagedResultsError(f"`{where}` is not UTF-8 text (byte {exc.start}): it is damaged") from exc
     except json.JSONDecodeError as exc:
-        raise DamagedResultsError(f"`{where}` is not valid JSON ({exc.msg} at line {exc.lineno}): it is damaged") from exc
+        raise DamagedResultsError(
+            f"`{where}` is not valid JSON ({exc.msg} at line {exc.lineno}): it is damaged"
+        ) from exc
 
 
 @dataclass
@@ -80,7 +93,8 @@ class _File:
         agree = [where for where in self.listed if where not in differ]
         return (
             f"changed: {'; '.join(f'{where} lists {_short(digest)}' for where, digest in differ.items())}, "
-            f"the file has {_short(self.actual)}" + (f" (as {' and '.join(agree)} list{'s' if len(agree) == 1 else ''})" if agree else "")
+            f"the file has {_short(self.actual)}"
+            + (f" (as {' and '.join(agree)} list{'s' if len(agree) == 1 else ''})" if agree else "")
         )
 
 

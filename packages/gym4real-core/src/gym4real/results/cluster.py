@@ -54,7 +54,7 @@ def train_task(item: Item, relative: str, storage_uri: str) -> str | None:
 
         error = None
         try:
-            run_item(dataclasses.replace(item, folder=folder), sync_checkpoints)
+            run_item(dataclasses.replace(item, folder=folder), sync_checkpoints, eval_beside=False)  # one CPU a task
         except Exception as exc:  # reported to the driver, which goes on with the other runs
             error = describe_error(exc)
         storage.upload(folder, relative)

@@ -10,9 +10,10 @@ else 3 when a section is stale (:class:`StaleResultsError`); else 4 when a secti
 
 A section is stale when a fingerprint of what its numbers depend on changed
 (:mod:`gym4real.results.fingerprints`). When only the test protocol changed, its finished training runs
-are tested again; when its data or trainer changed (or it recorded no fingerprints), its runs folder
-``OUT/<env>/<budget>/runs`` is moved aside (``runs.stale-<UTC time>``, kept for comparison) and every run
-trains again. ``--stale`` leaves a section that is only not checkable here as it is.
+are tested again; when its data or trainer changed (or it recorded no fingerprints), its agents' runs
+(``OUT/<env>/<budget>/runs/<agent>``) are moved aside (into ``runs.stale-<UTC time>``, kept for comparison)
+and every run trains again. A section of the JAX trainer's runs (``<env>-<budget>-jax``) is rerun by that
+trainer, and its runs (``runs/ppo-jax``) are moved aside alone: those of the SB3 section stay. ``--stale`` leaves a section that is only not checkable here as it is.
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ from pathlib import Path
 
 from gym4real.core.errors import Gym4RealError
 from gym4real.core.registry import slug
-from gym4real.results.artefacts import FOLDER, PAGE_FILES, DamagedResultsError, verify
+from gym4real.results.artefacts import FOLDER, PAGE_FILES, DamagedResultsError, trainer_of, verify
 from gym4real.results.fingerprints import not_here, section_changes
 
 
@@ -69,6 +70,7 @@ def reproduce_stale(
         jobs: Training runs at a time.
     """
     from gym4real.results.reproduce import reproduce
+
     if not out.is_dir():
         raise Gym4RealError(f"`{out}` is not a folder: pass the --out folder of an earlier `gym4real reproduce`")
     lines = []
@@ -87,17 +89,22 @@ def reproduce_stale(
             continue
         missing, unavailable = not_here(found)
         if len(missing) + len(unavailable) == len(found):  # nothing changed; what it needs is missing here
-            lines.append(f"{folder.name}: not checkable here, not rerun: {_not_checkable(folder, missing, unavailable)}")
+            lines.append(
+                f"{folder.name}: not checkable here, not rerun: {_not_checkable(folder, missing, unavailable)}"
+            )
             continue
         runs = out / slug(env_id) / budget / "runs"
+        agents = [runs / agent for agent in report.get("presets", {}) if (runs / agent).exists()]
         moved = ""
-        if needs_training(found) and runs.exists():
+        if needs_training(found) and agents:
             aside = runs.with_name(f"runs.stale-{time.strftime('%Y%m%dT%H%M%SZ', time.gmtime())}")
-            runs.rename(aside)
+            aside.mkdir(exist_ok=True)
+            for agent in agents:
+                agent.rename(aside / agent.name)
             moved = f"; its runs moved to {aside.name} and trained again"
         lines.append(f"{folder.name}: stale ({'; '.join(found)}){moved}")
         seeds = n_seeds if n_seeds is not None else len(report["seeds"]) or None
-        lines.append(reproduce([env_id], budget, seeds, out, page=page, jobs=jobs))
+        lines.append(reproduce([env_id], budget, seeds, out, page=page, jobs=jobs, trainer=trainer_of(folder.name)))
     return "\n".join(lines)
 
 

@@ -9,7 +9,10 @@ and that changes only when the scores would change:
   a file was missing);
 - ``trainer``: :data:`TRAINER_VERSION` (the version of our training code's output, pinned by the golden
   smoke runs of ``tests/golden/test_golden_trainer.py``), the SHA-256 of each algorithm's preset settings,
-  and the versions of Stable-Baselines3 and PyTorch when an algorithm trains with them.
+  and the versions of Stable-Baselines3 and PyTorch when an algorithm trains with them. A section of the
+  JAX trainer's runs (``<env>-<budget>-jax``) says so: ``trainer: jax``, :data:`JAX_TRAINER_VERSION`, its
+  PPO preset's settings and the versions of jax, jaxlib, optax and numba (a section of the reference
+  trainer names none, as its fingerprints always did).
 
 A section whose recorded fingerprints (``report.json``) equal those of the installed code is **current**,
 whatever commit trained it; otherwise it is **stale**, and :func:`changes` names what changed. Claims are
@@ -32,6 +35,11 @@ from gym4real.core.errors import Gym4RealError
 #: it, and the golden hashes of ``tests/golden/test_golden_trainer.py``, when a change of the training code
 #: changes what a seeded run trains; a change that moves code without changing its output keeps it.
 TRAINER_VERSION = 1
+#: The version of the JAX PPO trainer's output (:mod:`gym4real.rl.jax_ppo`); raise it when a change of that
+#: code changes what a seeded run trains.
+JAX_TRAINER_VERSION = 1
+#: The distributions whose versions the JAX trainer's fingerprint records.
+JAX_DISTRIBUTIONS = ("jax", "jaxlib", "optax", "numba")
 #: The algorithms trained with Stable-Baselines3 and PyTorch (their versions are part of the fingerprint).
 SB3_ALGOS = ("ppo", "dqn")
 #: The key of the fingerprints in a section's ``report.json``.
@@ -77,35 +85,49 @@ def data_fingerprint(data_files: list[dict[str, Any]]) -> dict[str, str]:
     return dict(sorted(found.items()))
 
 
-def trainer_fingerprint(env_id: str, presets: dict[str, str]) -> dict[str, Any]:
-    """What a seeded training run of ``env_id``'s ``presets`` (algo -> preset) trains, as installed."""
+def _installed(dists: tuple[str, ...]) -> dict[str, str]:
+    found = {}
+    for dist in dists:
+        try:
+            found[dist] = metadata.version(dist)
+        except metadata.PackageNotFoundError:
+            found[dist] = "not installed"
+    return found
+
+
+def trainer_fingerprint(env_id: str, presets: dict[str, str], trainer: str = "sb3") -> dict[str, Any]:
+    """What a seeded training run of ``env_id``'s ``presets`` (algo -> preset) trains, as installed.
+
+    With ``trainer="jax"``: the budget's PPO preset trained by the JAX trainer (its runs alone, as
+    :func:`gym4real.results.plan.plan` plans them).
+    """
     from gym4real.rl.presets import load_preset
 
+    if trainer != "sb3":
+        presets = {algo: preset for algo, preset in presets.items() if algo == "ppo"}
     found: dict[str, Any] = {
-        "trainer_version": TRAINER_VERSION,
+        "trainer_version": TRAINER_VERSION if trainer == "sb3" else JAX_TRAINER_VERSION,
         "presets": {
             algo: {"preset": preset, "settings_sha256": _sha256_json(load_preset(env_id, algo, preset))}
             for algo, preset in sorted(presets.items())
         },
     }
+    if trainer != "sb3":
+        return {"trainer": trainer, **found, **_installed(JAX_DISTRIBUTIONS)}
     if any(algo in SB3_ALGOS for algo in presets):
-        for dist in ("stable-baselines3", "torch"):
-            try:
-                found[dist] = metadata.version(dist)
-            except metadata.PackageNotFoundError:
-                found[dist] = "not installed"
+        found |= _installed(("stable-baselines3", "torch"))
     return found
 
 
-def fingerprints(env_id: str, budget: str) -> dict[str, Any]:
-    """The installed fingerprints of a section of ``env_id`` at ``budget``: protocol, data and trainer."""
+def fingerprints(env_id: str, budget: str, trainer: str = "sb3") -> dict[str, Any]:
+    """The installed fingerprints of a section of ``env_id`` at ``budget`` (by ``trainer``): protocol, data, trainer."""
     from gym4real.results import provenance
     from gym4real.bench.seeds import presets
 
     return {
         "protocol": protocol_fingerprint(env_id),
         "data": data_fingerprint(provenance.data_files(env_id)),
-        "trainer": trainer_fingerprint(env_id, presets(env_id, budget)),
+        "trainer": trainer_fingerprint(env_id, presets(env_id, budget), trainer),
     }
 
 
@@ -165,7 +187,7 @@ def section_changes(folder: Path) -> list[str]:
     Raises:
         DamagedResultsError: Its ``report.json`` is not UTF-8 JSON of a section (named).
     """
-    from gym4real.results.artefacts import DamagedResultsError, read_json
+    from gym4real.results.artefacts import DamagedResultsError, read_json, trainer_of
 
     if (folder / "error.txt").exists():
         return ["not run (error.txt)"]
@@ -174,10 +196,12 @@ def section_changes(folder: Path) -> list[str]:
         return ["no report.json"]
     where = f"{folder.name}/report.json"
     report = read_json(report_path, where)
-    if not (isinstance(report, dict) and isinstance(report.get("env_id"), str) and isinstance(report.get("budget"), str)):
+    if not (
+        isinstance(report, dict) and isinstance(report.get("env_id"), str) and isinstance(report.get("budget"), str)
+    ):
         raise DamagedResultsError(f"`{where}` names no env_id and budget: it is damaged")
     try:
-        installed = fingerprints(report["env_id"], report["budget"])
+        installed = fingerprints(report["env_id"], report["budget"], trainer_of(folder.name))
     except Gym4RealError as exc:
         return [f"{UNAVAILABLE}: {' '.join(str(exc).split())}"]
     return changes(report.get(KEY), installed)

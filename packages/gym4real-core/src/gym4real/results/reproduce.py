@@ -197,7 +197,8 @@ def reproduce_env(
     """
     from gym4real.bench import plots
 
-    folder = results_folder(out, env_id, budget, runs[0].trainer if runs else "sb3")
+    trainer = runs[0].trainer if runs else "sb3"
+    folder = results_folder(out, env_id, budget, trainer)
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "error.txt").unlink(missing_ok=True)
     spec = protocol(env_id)
@@ -224,7 +225,7 @@ def reproduce_env(
         "platform": platform.platform(),
         "cpu": versions.cpu_model(),
         "data_files": provenance.data_files(env_id),
-        fingerprints.KEY: fingerprints.fingerprints(env_id, budget),
+        fingerprints.KEY: fingerprints.fingerprints(env_id, budget, trainer),
     }
     (folder / "report.json").write_text(json.dumps(report, indent=1))
     publish_models(runs, folder, budget)

@@ -28,7 +28,7 @@ from gym4real.bench import stats
 from gym4real.bench.numbers import human
 from gym4real.bench.published import FOLDER as MODELS
 from gym4real.results import analysis, summary_figure, workspace
-from gym4real.results.artefacts import FOLDER, MANIFEST, PAGE, RENDERED, DamagedResultsError, read_json
+from gym4real.results.artefacts import FOLDER, MANIFEST, PAGE, RENDERED, DamagedResultsError, read_json, trainer_of
 from gym4real.results.claims import QUANTITIES, RULES, VERDICTS
 from gym4real.results.fingerprints import section_changes
 from gym4real.results.headroom_page import headroom_table
@@ -94,11 +94,15 @@ def _has_results(folder: Path) -> bool:
 
 
 def _folders(out: Path) -> list[Path]:
-    """Per environment: its paper-budget folder, or else why it is missing and its quick-budget folder."""
-    envs = sorted({m["env"] for p in out.iterdir() if p.is_dir() and (m := FOLDER.match(p.name))})
+    """Per environment and trainer: its paper-budget folder, or else why it is missing and its quick-budget folder.
+
+    The sections of the JAX trainer's runs (``<env>-<budget>-jax``) follow the env's SB3 sections.
+    """
+    envs = sorted({(m["env"], m["trainer"] or "") for p in out.iterdir() if p.is_dir() and (m := FOLDER.match(p.name))})
     found = []
-    for env in envs:
-        paper, quick = out / f"{env}-paper", out / f"{env}-quick"
+    for env, trainer in envs:
+        suffix = f"-{trainer}" if trainer else ""
+        paper, quick = out / f"{env}-paper{suffix}", out / f"{env}-quick{suffix}"
         if _has_results(paper):
             found.append(paper)
             continue
@@ -179,6 +183,7 @@ class Section:
         self.folder = folder
         self.name = folder.name
         self.budget = FOLDER.match(folder.name)["budget"]  # type: ignore[index]
+        self.trainer = trainer_of(folder.name)
         self.report: dict[str, Any] = json.loads((folder / "report.json").read_text())
         self.episodes = pd.read_csv(folder / "episodes.csv")
         self.summary = pd.read_csv(folder / "summary.csv")
@@ -192,6 +197,13 @@ class Section:
     def version(self) -> str:
         """The code version that produced the folder."""
         return str(self.report["code_version"])
+
+
+def _trained_by(trainer: str) -> str:
+    """What a section's title says of its trainer: nothing for SB3 (the reference), else its agent's label."""
+    from gym4real.rl.train import label
+
+    return "" if trainer == "sb3" else f", trainer `{label('ppo', trainer)}` (PPO trained by {trainer.upper()})"
 
 
 def _verdict(verdict: str, budget: str, bold: bool = True) -> str:
@@ -269,11 +281,11 @@ def _upper_references_line(report: dict[str, Any]) -> list[str]:
 def _section(folder: Path, section: Section | None, version: str) -> list[str]:
     """The page's section of one env folder; ``section`` is None when it has no results."""
     m = FOLDER.match(folder.name)
-    env, budget = m["env"], m["budget"]  # type: ignore[index]
+    env, budget, by = m["env"], m["budget"], _trained_by(trainer_of(folder.name))  # type: ignore[index]
     if section is None:
         error = (folder / "error.txt").read_text().strip() if (folder / "error.txt").exists() else "no results"
         return [
-            f"## `gym4real/{env}`, budget `{budget}`: not run",
+            f"## `gym4real/{env}`, budget `{budget}`{by}: not run",
             "",
             f"Not run here: {no_paths(error)}",
             "",
@@ -281,7 +293,7 @@ def _section(folder: Path, section: Section | None, version: str) -> list[str]:
             "",
         ]
     report, scale, name = section.report, section.scale, section.name
-    title = f"## `{report['env_id']}`, budget `{budget}`" + (f": {QUICK}" if budget == "quick" else "")
+    title = f"## `{report['env_id']}`, budget `{budget}`{by}" + (f": {QUICK}" if budget == "quick" else "")
     lines = [title, ""]
     lines += [currency_line(section.stale, report.get("fingerprints_verified")), ""]
     runs = section.runs
@@ -465,7 +477,9 @@ def _verdicts(
 def _summary_figure(sections: list[Section], out: Path) -> list[str]:
     """The page's opening figure (every agent and baseline per env, :mod:`summary_figure`) and its link."""
     panels = [
-        (s.report["env_id"], " + ".join(s.report["objective"]), s.summary) for s in sections if s.budget == "paper"
+        (s.report["env_id"], " + ".join(s.report["objective"]), s.summary)
+        for s in sections
+        if s.budget == "paper" and s.trainer == "sb3"  # the reference trainer's: one panel per env
     ]
     if summary_figure.write(panels, out) is None:
         return []
@@ -561,7 +575,9 @@ def suite_scores(sections: list[Section]) -> list[str]:
         "below 1: rliable's *optimality gap* with the best rule as the target, not a gap to an optimum). Agents "
         "trained on different envs average different envs: each set of envs has its own table, and agents are "
         "compared per env, never by aggregates over different envs. `gym4real evaluate` puts your agent on the same "
-        "scale. Scales: " + "; ".join(scales) + ".",
+        "scale. Scales: "
+        + "; ".join(dict.fromkeys(scales))  # an env's scale once, whatever trainers' sections it has
+        + ".",
         "",
     ]
     groups: dict[tuple[str, ...], list[str]] = {}
@@ -676,7 +692,8 @@ def write_page(out: Path, page: str | Path | None = None) -> Path:
     sections = {folder: Section(folder) for folder in folders if _has_results(folder)}
     counts = Counter(s.version for s in sections.values())
     version = counts.most_common(1)[0][0] if counts else "none"
-    claims = [c for s in sections.values() for c in s.claims]
+    # the paper's claims are decided on the reference trainer's sections; another trainer's show in its section
+    claims = [c for s in sections.values() if s.trainer == "sb3" for c in s.claims]
     scales = {s.name: s.scale for s in sections.values()}
     marks = {s.name: budget_mark(s.report, s.budget) for s in sections.values()}
     caveats = {s.name: machine_caveat(s.report) for s in sections.values()}

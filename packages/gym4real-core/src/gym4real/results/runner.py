@@ -74,15 +74,10 @@ def describe_item(item: Item) -> str:
     return f"{slug(item.env_id)} {label(item.algo, item.trainer)} seed {item.seed}"
 
 
-def available_cpus() -> int:
-    """The cores this process may run on (``--jobs auto``)."""
-    if hasattr(os, "sched_getaffinity"):
-        return len(os.sched_getaffinity(0))
-    return os.cpu_count() or 1
-
-
-def run_item(item: Item, progress: Progress | None = None) -> TrainingRun:
+def run_item(item: Item, progress: Progress | None = None, eval_beside: bool | None = None) -> TrainingRun:
     """Train one run of a plan, or reuse the finished run in its folder.
+
+    ``eval_beside`` is :func:`~gym4real.rl.train.train`'s: False where the plan's runs book every core.
 
     Raises:
         DamagedRunError: A file of the run's folder cannot be read (unless ``item.retrain_damaged``).
@@ -91,7 +86,9 @@ def run_item(item: Item, progress: Progress | None = None) -> TrainingRun:
     run = finished_run(item.folder, item.env_id, item.algo, item.preset, item.seed, item.trainer)
     if run is not None:
         return run
-    return train(item.env_id, item.algo, item.preset, item.seed, item.folder, progress or False, item.trainer)
+    return train(
+        item.env_id, item.algo, item.preset, item.seed, item.folder, progress or False, item.trainer, eval_beside
+    )
 
 
 def train_plan(items: Sequence[Item], progress: PlanProgress | None = None, jobs: int = 1) -> list[Outcome]:
@@ -114,7 +111,10 @@ def train_plan(items: Sequence[Item], progress: PlanProgress | None = None, jobs
 
 
 def _run_here(key: int, item: Item, progress: PlanProgress | None, poll: Callable[[], None] | None = None) -> Outcome:
-    """Run item ``key`` in this process (``poll`` is called as it reports progress); its bar item is closed."""
+    """Run item ``key`` in this process (``poll`` is called as it reports progress); its bar item is closed.
+
+    Beside workers (``poll`` given) the JAX trainer evaluates in-line: the plan's runs book every core.
+    """
 
     def report(done: int, total: int) -> None:
         if progress is not None:
@@ -123,7 +123,7 @@ def _run_here(key: int, item: Item, progress: PlanProgress | None, poll: Callabl
             poll()
 
     try:
-        outcome = Outcome(item, run_item(item, report))
+        outcome = Outcome(item, run_item(item, report, False if poll is not None else None))
     except Exception as exc:  # one run's failure (missing data, a bug) must not stop the others
         outcome = Outcome(item, None, describe_error(exc))
     if progress is not None:
@@ -161,7 +161,7 @@ def _serve(tasks: Any, messages: Any) -> None:
                 messages.put(("progress", key, done, total))
 
         try:
-            messages.put(("done", key, Outcome(item, run_item(item, report))))
+            messages.put(("done", key, Outcome(item, run_item(item, report, eval_beside=False))))
         except Exception as exc:  # reported to the parent, which goes on with the other runs
             messages.put(("done", key, Outcome(item, None, describe_error(exc))))
 

@@ -19,9 +19,12 @@ value targets (:mod:`gym4real.rl.value_scaler`). Where it differs, by design:
 - the native env resets an ended copy at its next step; that step holds no transition and weighs 0 in the
   update (:mod:`gym4real.rl.rollout_kernel`), where SB3's vector env resets within the step;
 - evaluations run after the update of the iteration that reaches the next ``eval_freq`` (SB3's callback
-  evaluates within the rollout), with the deterministic mean action;
-- each checkpoint (written at each evaluation) restarts the envs' episodes, seeded ``seed + timesteps``, in
-  the uninterrupted run as in a resumed one: a resumed run is the uninterrupted run, bit for bit.
+  evaluates within the rollout), with the deterministic mean action, on a snapshot of the policy: beside
+  training in a second process where two cores are available (:mod:`gym4real.rl.checkpoint_evaluations`),
+  their results taken at the next evaluation point; the curve and the selected model are the same in-line;
+- each checkpoint (written at each evaluation, its own evaluation still running: a resumed run runs it
+  again from the checkpoint's policy) restarts the envs' episodes, seeded ``seed + timesteps``, in the
+  uninterrupted run as in a resumed one: a resumed run is the uninterrupted run, bit for bit.
 
 A run writes ``model.npz`` (the best model on the validation episodes; a :mod:`gym4real.rl.actor_critic`
 model file, loaded as ``ppo-jax:PATH``), the learning curve and, while unfinished, ``checkpoint/``.
@@ -348,14 +351,29 @@ def _checkpoint(folder: Path, slot: str, trainer: JaxPPO, record: dict[str, Any]
 
 
 def train_jax(
-    env_id: str, hp: dict[str, Any], seed: int, out: Path, progress: Progress | None = None
+    env_id: str,
+    hp: dict[str, Any],
+    seed: int,
+    out: Path,
+    progress: Progress | None = None,
+    eval_beside: bool | None = None,
 ) -> tuple[Path, dict[str, int]]:
     """Train PPO with a preset; keep the best model on the validation episodes (see the module docstring).
 
+    Args:
+        env_id: A registered id with a native vector env.
+        hp: A resolved PPO preset.
+        seed: Seed of the run.
+        out: The run's folder (a checkpoint there is resumed).
+        progress: Called with (steps done, total) after each iteration.
+        eval_beside: Run the checkpoint evaluations in a second process beside training (True), in-line
+            (False), or beside when this process may use two cores (None,
+            :func:`~gym4real.rl.checkpoint_evaluations.beside_by_default`). The results are the same.
+
     Returns ``model.npz`` and the counts of environment steps (``train``, ``eval``).
     """
+    from gym4real.rl.checkpoint_evaluations import CheckpointEvaluations, beside_by_default
     from gym4real.rl.curves import LearningCurve
-    from gym4real.rl.evaluation import BatchEvaluation
 
     trainer = JaxPPO(env_id, hp, seed)
     checkpoint = out / "checkpoint"
@@ -364,10 +382,16 @@ def train_jax(
         with np.load(checkpoint / state["slot"] / "state.npz", allow_pickle=False) as data:
             trainer.restore({k: data[k] for k in data.files}, state)
     eval_freq, total = int(hp["eval_freq"]), trainer.total
-    evaluation = BatchEvaluation(
-        env_id, hp.get("eval_env_kwargs") or hp.get("env_kwargs", {}), int(hp["eval_episodes"]), int(hp["eval_seed"])
+    evaluations = CheckpointEvaluations(
+        env_id,
+        hp.get("eval_env_kwargs") or hp.get("env_kwargs", {}),
+        int(hp["eval_episodes"]),
+        int(hp["eval_seed"]),
+        beside_by_default() if eval_beside is None else eval_beside,
     )
-    curve = LearningCurve.load(out, "timesteps", upto=trainer.timesteps)
+    # a checkpoint's own evaluation was still running when it was written: it runs again, from its snapshot
+    pending = bool(state and state.get("pending"))
+    curve = LearningCurve.load(out, "timesteps", upto=trainer.timesteps - 1 if pending else trainer.timesteps)
     best = float(state["best"]) if state else -np.inf
     next_eval = int(state["next_eval"]) if state else min(eval_freq, total)
     eval_steps = int(state["eval_steps"]) if state else 0
@@ -375,30 +399,37 @@ def train_jax(
     model_path = out / "model.npz"
     out.mkdir(parents=True, exist_ok=True)
 
-    def evaluate() -> None:
+    def settle() -> None:
+        """Take the results of the evaluations submitted so far: the curve, and the best model."""
         nonlocal best, eval_steps
-        model = trainer.model()
-        rewards = evaluation.run(model)
-        eval_steps += sum(len(r) for r in rewards)
-        mean = curve.add(trainer.timesteps, [float(r.sum()) for r in rewards])
-        if mean > best:
-            best = mean
-            write_whole(model_path, model.save)
+        for timesteps, model, rewards in evaluations.results():
+            eval_steps += sum(len(r) for r in rewards)
+            mean = curve.add(timesteps, [float(r.sum()) for r in rewards])
+            if mean > best:
+                best = mean
+                write_whole(model_path, model.save)
 
-    trainer.start_episodes()
-    while trainer.timesteps < total:
-        trainer.iteration()
-        if progress is not None:
-            progress(trainer.timesteps, total)
-        if trainer.timesteps >= next_eval and trainer.timesteps < total:
-            next_eval += eval_freq
-            evaluate()
-            record = {"best": best, "next_eval": next_eval, "eval_steps": eval_steps}
-            slot = _checkpoint(checkpoint, slot, trainer, record)
-            trainer.start_episodes()
-    if not curve.rows or curve.rows[-1]["timesteps"] < trainer.timesteps:
-        evaluate()
-    trainer.close()
-    evaluation.close()
+    try:
+        if pending:
+            evaluations.submit(trainer.timesteps, trainer.model())
+        trainer.start_episodes()
+        while trainer.timesteps < total:
+            trainer.iteration()
+            if progress is not None:
+                progress(trainer.timesteps, total)
+            if trainer.timesteps >= next_eval and trainer.timesteps < total:
+                next_eval += eval_freq
+                settle()
+                evaluations.submit(trainer.timesteps, trainer.model())
+                record = {"best": best, "next_eval": next_eval, "eval_steps": eval_steps, "pending": True}
+                slot = _checkpoint(checkpoint, slot, trainer, record)
+                trainer.start_episodes()
+        settle()
+        if not curve.rows or curve.rows[-1]["timesteps"] < trainer.timesteps:
+            evaluations.submit(trainer.timesteps, trainer.model())
+            settle()
+    finally:
+        evaluations.close()
+        trainer.close()
     shutil.rmtree(checkpoint, ignore_errors=True)
     return model_path, {"train": trainer.timesteps, "eval": eval_steps}

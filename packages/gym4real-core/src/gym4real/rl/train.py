@@ -147,6 +147,7 @@ def train(
     out: str | Path | None = None,
     progress: bool | Progress = False,
     trainer: str = "sb3",
+    eval_beside: bool | None = None,
 ) -> TrainingRun:
     """Train an agent with a registered preset and write the model and the learning curve.
 
@@ -160,13 +161,19 @@ def train(
         progress: Show a progress bar (True), or a function called with (done, total).
         trainer: ``sb3`` (Stable-Baselines3, every algorithm but the tabular ones) or ``jax`` (PPO on an env
             with a native vector env, :mod:`gym4real.rl.jax_ppo`; the ``jax`` extra).
+        eval_beside: The JAX trainer's checkpoint evaluations in a second process beside training (True),
+            in-line (False), or beside when this process may use two cores (None); the run's results are
+            the same either way (:mod:`gym4real.rl.checkpoint_evaluations`). Not a setting of the run: a
+            run resumes with either.
 
     Raises:
         ConfigError: ``out`` holds a run of other settings, or an unknown trainer or one that does not
-            train ``algo``.
+            train ``algo``, or ``eval_beside=True`` with a trainer other than JAX.
     """
     if trainer not in TRAINERS:
         raise ConfigError(f"unknown trainer `{trainer}`; expected one of {list(TRAINERS)}")
+    if eval_beside and trainer != "jax":
+        raise ConfigError("checkpoint evaluations beside training are the JAX trainer's (`--trainer jax`)")
     if trainer == "jax" and algo != "ppo":
         raise ConfigError(f"the JAX trainer trains PPO, not `{algo}`: use `--trainer sb3`")
     hp = load_preset(env_id, algo, preset)
@@ -211,7 +218,7 @@ def train(
     elif trainer == "jax":
         from gym4real.rl.jax_ppo import train_jax
 
-        model, steps = train_jax(env_id, hp, seed, folder, report)
+        model, steps = train_jax(env_id, hp, seed, folder, report, eval_beside)
     else:
         from gym4real.rl.sb3 import train_sb3
 
