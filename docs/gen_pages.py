@@ -336,12 +336,13 @@ def verdict_table(env_id: str | None = None) -> list[str]:
     ``env_id``); empty when the page has no row for it."""
     results = DOCS / "results" / "index.md"
     text = results.read_text(encoding="utf-8").splitlines() if results.is_file() else []
-    head = [i for i, line in enumerate(text) if line.startswith("| env | budget |")]
+    head = [i for i, line in enumerate(text) if line.startswith("| env | paper's claim |")]
     if not head:
         return []
-    prefix = f"| `{env_id.split('/')[-1]}` |" if env_id else "| `"
+    env = re.escape(env_id.split("/")[-1]) if env_id else "[a-z0-9-]+"
     end = next((i for i in range(head[0], len(text)) if not text[i].startswith("|")), len(text))
-    rows = [line for line in text[head[0] + 2 : end] if line.startswith(prefix)]  # the paper's claims' table only
+    # the paper's claims' table only; an env's budget, when not a plain `paper`, is under its name
+    rows = [line for line in text[head[0] + 2 : end] if re.match(rf"\| `{env}`(<br>[^|]*)? \|", line)]
     return [*text[head[0] : head[0] + 2], *rows] if rows else []
 
 
