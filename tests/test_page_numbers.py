@@ -22,8 +22,8 @@ import yaml
 
 from gym4real.bench import stats, suite_score, upper_reference
 from gym4real.bench.benchmark import protocol
-from gym4real.bench.numbers import human
 from gym4real.bench.episodes import score_matrices
+from gym4real.bench.numbers import human
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "docs" / "results"
@@ -285,3 +285,31 @@ def test_the_main_job_prints_the_paper_agents_and_the_upper_reference_under_its_
     assert "hindsight (non-causal upper reference, exact)" in out and "  qlearning " in out and "  sarsa " in out
     assert main([*args[:-1], "--env", "reward_coeff=2", "--quiet"]) == 0  # another protocol: nothing to compare
     assert lines[0] not in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("env", ["dam-v0", "elevator-v0", "robofeeder-planning-v0"])
+def test_reproduces_text_report_names_the_paper_agent_and_the_upper_reference_with_its_kind(env: str) -> None:
+    """`gym4real reproduce` prints each section's summary: its numbers as the page writes them, a paper agent and
+    the upper reference (with its kind, as the figures label it) named so, each claim's verdict with its mark."""
+    from gym4real.bench.upper_reference import label
+    from gym4real.core.registry import non_causal
+    from gym4real.results.reproduce import EnvReport, text_report
+
+    env_id = f"gym4real/{env}"
+    table = pd.read_csv(RESULTS / f"{env}-paper" / "summary.csv")
+    claims = [c for c in json.loads((RESULTS / "claims.json").read_text()) if c["env_id"] == env_id]
+    lines = "\n".join(text_report(env_id, "paper", EnvReport(table, claims))).splitlines()
+    assert lines[0] == f"== {env_id} (paper)"
+    rows = {line.split()[0]: line for line in lines[2 : 2 + len(table)]}
+    assert set(rows) == set(table["policy"])
+    for row in table.to_dict("records"):
+        line, policy = rows[row["policy"]], row["policy"]
+        kind = label(env_id, policy)[len(policy) + 2 : -1] if policy in non_causal(env_id) else None
+        expected = kind or ("paper agent" if row["kind"] == "agent" else "baseline")
+        assert f" {expected} " in line and f" {human(row['iqm'])} " in line and f" {human(row['low'])} " in line
+    assert any(f" {label(env_id, p)[len(p) + 2 : -1]} " in rows[p] for p in non_causal(env_id))
+    marks = {"holds": "✅", "refuted": "❌", "inconclusive": "❔"}
+    assert [line for line in lines if line.startswith("claim: ")] == [
+        f"claim: {c['text']} -> {marks[c['verdict']]} {c['verdict']}" for c in claims
+    ]
+    assert not any(re.search(r"\de[+-]\d", line) for line in lines)
