@@ -313,3 +313,12 @@ def test_reproduces_text_report_names_the_paper_agent_and_the_upper_reference_wi
         f"claim: {c['text']} -> {marks[c['verdict']]} {c['verdict']}" for c in claims
     ]
     assert not any(re.search(r"\de[+-]\d", line) for line in lines)
+
+
+def test_an_env_whose_module_lies_in_no_package_ships_no_reference_runs(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A plugin's env defined in a single module has no ``reference/`` folder: `gym4real bench` shows no paper rows."""
+    from gym4real.bench import reference
+
+    monkeypatch.setattr(reference, "domain_package", lambda env_id: "json.decoder")  # a module, not a package
+    assert reference.load_reference("gym4real/elevator-v0") is None
+    assert reference.published_lines("gym4real/elevator-v0") == []

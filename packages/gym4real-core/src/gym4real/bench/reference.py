@@ -148,7 +148,10 @@ def load_reference(env_id: str, folder: str | Path | None = None) -> Reference |
         env_id: A registered id.
         folder: A folder holding ``<name>.csv`` and ``<name>.json`` (default: the domain's ``reference/``).
     """
-    base = _folder(env_id, folder)
+    try:
+        base = _folder(env_id, folder)
+    except TypeError:  # the env's module lies in no package (a plugin's single module): it ships no reference runs
+        return None
     table, record = base / f"{slug(env_id)}.csv", base / f"{slug(env_id)}.json"
     if not table.is_file():
         return None
