@@ -40,6 +40,8 @@ import pandas as pd
 
 import gym4real
 import gym4real.core.registry
+from gym4real.bench.numbers import human, human_interval
+from gym4real.bench.upper_label import label
 from gym4real.core.registry import MARK, non_causal, registry, upper_reference
 from gym4real.core.specs import FLAGS
 
@@ -148,6 +150,7 @@ def page(env_id: str, figures: Path | None, gif: tuple[Path, str, int] | None = 
             "",
             f"`gym4real bench {env_id}` (policies {', '.join(bench.policies)}).",
         ]
+        lines += paper_results(env_id)
         lines += headroom_section(env_id, figures)
     if info.datasets or any(n.startswith(env_id.split("/")[1].split("-")[0] + "/") for n in reg.datasets):
         domain = env_id.split("/")[1].split("-")[0]
@@ -252,6 +255,43 @@ def figure_caption(png: str, run: dict[str, Any]) -> str:
     )
 
 
+def paper_results(env_id: str) -> list[str]:
+    """The env's committed results (``docs/results/<name>-paper/summary.csv``, the results page's numbers): each
+    policy's IQM of the objective with its 95 % interval and its mean, the paper agents and baselines best first,
+    the non-causal upper references last with their kind, not ranked; empty without a paper-budget section."""
+    name = env_id.split("/")[-1]
+    summary = DOCS / "results" / f"{name}-paper" / "summary.csv"
+    if not summary.is_file():
+        return []
+    table = pd.read_csv(summary)
+    upper = table["policy"].isin(non_causal(env_id))
+    ranked = table[~upper].sort_values("iqm", ascending=False, kind="stable")
+    rows = []
+    for row in [*ranked.to_dict("records"), *table[upper].to_dict("records")]:
+        policy = str(row["policy"])
+        if policy in non_causal(env_id):
+            shown, kind = f"`{policy}`{label(env_id, policy).removeprefix(policy)}", "upper reference, not ranked"
+        else:
+            shown = f"`{policy}`"
+            kind = f"paper agent ({row['seeds']} seeds)" if row["kind"] == "agent" else "baseline"
+        score = f"{human(row['iqm'])} {human_interval(row['low'], row['high'])}"
+        rows.append(f"| {shown} | {kind} | {score} | {human(row['mean'])} |")
+    return [
+        "",
+        "## Results of the paper's agents",
+        "",
+        f"The committed results of `gym4real reproduce {env_id} --budget paper` (the [results page]"
+        f"(../results/index.md); raw data in `docs/results/{name}-paper/`): the IQM of the per-episode objective on "
+        "the test protocol (a paper agent's training seeds pooled) with its 95 % bootstrap interval, and the mean; "
+        f"best first, the {MARK} last, not ranked. `gym4real bench {env_id}` prints the paper agents' and upper "
+        "references' rows under its own table.",
+        "",
+        "| policy | kind | IQM [95 % interval] | mean |",
+        "|---|---|---|---|",
+        *rows,
+    ]
+
+
 def headroom_section(env_id: str, figures: Path | None) -> list[str]:
     """The env page's headroom: its upper references, and their score beside the best rule-based baseline's
     when the bench results (``--figures``) hold both; empty without an upper reference."""
@@ -281,7 +321,7 @@ def headroom_section(env_id: str, figures: Path | None) -> list[str]:
         shown = [p for p in [*upper, *rule] if p in table.index]
         if any(u in shown for u in upper):
             lines += ["", "| policy | mean objective |", "|---|---|"]
-            lines += [f"| `{p}` | {table.loc[p, column]:.6g} |" for p in shown]
+            lines += [f"| `{p}` | {human(table.loc[p, column])} |" for p in shown]
     return lines
 
 
@@ -336,12 +376,13 @@ def verdict_table(env_id: str | None = None) -> list[str]:
     ``env_id``); empty when the page has no row for it."""
     results = DOCS / "results" / "index.md"
     text = results.read_text(encoding="utf-8").splitlines() if results.is_file() else []
-    head = [i for i, line in enumerate(text) if line.startswith("| env | budget |")]
+    head = [i for i, line in enumerate(text) if line.startswith("| env | paper's claim |")]
     if not head:
         return []
-    prefix = f"| `{env_id.split('/')[-1]}` |" if env_id else "| `"
+    env = re.escape(env_id.split("/")[-1]) if env_id else "[a-z0-9-]+"
     end = next((i for i in range(head[0], len(text)) if not text[i].startswith("|")), len(text))
-    rows = [line for line in text[head[0] + 2 : end] if line.startswith(prefix)]  # the paper's claims' table only
+    # the paper's claims' table only; an env's budget, when not a plain `paper`, is under its name
+    rows = [line for line in text[head[0] + 2 : end] if re.match(rf"\| `{env}`(<br>[^|]*)? \|", line)]
     return [*text[head[0] : head[0] + 2], *rows] if rows else []
 
 

@@ -231,11 +231,11 @@ def test_code_in_tables_is_never_broken_mid_word() -> None:
 def test_home_verdicts_are_the_results_pages(load_script: Callable[[Path], ModuleType]) -> None:
     gen_pages = load_script(ROOT / "docs" / "gen_pages.py")
     results = (ROOT / "docs" / "results" / "index.md").read_text(encoding="utf-8").splitlines()
-    head = next(i for i, line in enumerate(results) if line.startswith("| env | budget | paper's claim |"))
+    head = next(i for i, line in enumerate(results) if line.startswith("| env | paper's claim |"))
     end = next(i for i in range(head, len(results)) if not results[i].startswith("|"))
     rows = results[head + 2 : end]  # the paper's claims; this suite's own checks are a table apart
     table = gen_pages.verdict_table()
-    assert rows and table[0].startswith("| env | budget | paper's claim |") and table[2:] == rows
+    assert rows and table[0].startswith("| env | paper's claim |") and table[2:] == rows
 
 
 def test_home_suite_scores_are_the_results_pages(load_script: Callable[[Path], ModuleType]) -> None:

@@ -1,9 +1,11 @@
-"""Every number the README and docs/headroom.md repeat from the committed results equals the results' own.
+"""Every number the README, docs/headroom.md, the env pages and the main job repeat from the committed results
+equals the results' own.
 
-The pages are written by hand around the numbers of ``docs/results`` (each section's ``summary.csv``,
-``episodes.csv`` and ``report.json``); these tests read each repeated number off the page and recompute it
-from those files, to the digits the page gives, so that a page cannot disagree with the results or with
-itself (issue 45: "PPO scoring 1.79 on dam" above a dam section saying 1.42).
+The README and docs/headroom.md are written by hand around the numbers of ``docs/results`` (each section's
+``summary.csv``, ``episodes.csv`` and ``report.json``); the env pages (``docs/gen_pages.py``) and the main job's
+output (``gym4real bench``) are generated from them. These tests read each repeated number off the page or the
+output and recompute it from those files, to the digits shown, so that a page cannot disagree with the results
+or with itself (issue 45: "PPO scoring 1.79 on dam" above a dam section saying 1.42).
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ import yaml
 from gym4real.bench import stats, suite_score, upper_reference
 from gym4real.bench.benchmark import protocol
 from gym4real.bench.episodes import score_matrices
+from gym4real.bench.numbers import human
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "docs" / "results"
@@ -32,6 +35,12 @@ def agrees(text: str, value: float) -> bool:
     """Whether ``text`` (``-1,997``, ``1.42``) is ``value`` rounded to the digits it shows."""
     digits = len(text.split(".")[1]) if "." in text else 0
     return abs(float(text.replace(",", "")) - value) <= 0.5 * 10.0**-digits * (1 + 1e-9)
+
+
+def shows(text: str, value: float) -> bool:
+    """Whether ``text`` is ``value`` as a generated page writes it (``human``: four significant digits), or
+    rounded to the digits it shows (:func:`agrees`; a difference within float noise shown as 0)."""
+    return text == human(value) or agrees(text, value)
 
 
 def summary(env: str) -> pd.DataFrame:
@@ -148,3 +157,168 @@ def test_the_fingerprint_sentences_name_no_empty_file_count_and_no_dirty_suffix(
     assert verify.data_words({}, []) == "the env reads no data file, so there is none to compare"
     two = verify.data_words({"a.csv": "1", "b.csv": "2"}, ["b.csv"])
     assert two.startswith("the SHA-256 of the 2 data files read") and two.endswith("copies found here: b.csv")
+
+
+SECTIONS = sorted(p.name.removesuffix("-paper") for p in RESULTS.glob("*-paper") if (p / "summary.csv").is_file())
+ROW = re.compile(rf"^\| `(\w+)`([^|]*) \| ([^|]+) \| ({NUMBER}) \[({NUMBER}), ({NUMBER})\] \| ({NUMBER}) \|$", re.M)
+DIFFERENCE = re.compile(rf"(IQM|spread|success rate) (\w+) - (\w+): ({NUMBER}) \[({NUMBER}), ({NUMBER})\]")
+
+
+@pytest.fixture(scope="module")
+def gen_pages(load_script: Callable[[Path], ModuleType]) -> ModuleType:
+    return load_script(ROOT / "docs" / "gen_pages.py")
+
+
+def env_page(gen_pages: ModuleType, env_id: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> str:
+    """The env page as `nox -s docs` generates it from the committed results and bench runs (its copies of the
+    figures written under ``tmp_path``)."""
+    docs = tmp_path / "docs"
+    docs.mkdir()
+    (docs / "results").symlink_to(RESULTS)
+    monkeypatch.setattr(gen_pages, "DOCS", docs)
+    page: str = gen_pages.page(env_id, ROOT / "docs" / "bench")
+    return page
+
+
+def page_section(page: str, title: str) -> str:
+    """The text of a page's ``## title`` section, to the next ``## `` heading."""
+    start = page.index(f"\n## {title}\n")
+    end = page.find("\n## ", start + 1)
+    return page[start : end if end > 0 else None]
+
+
+@pytest.mark.parametrize("env", SECTIONS)
+def test_every_number_an_env_page_repeats_from_the_results_is_the_results_own(
+    env: str, gen_pages: ModuleType, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Issue 45: the env pages showed baselines only. Each now shows every policy of its results section, the paper
+    agents and the upper reference (labelled with its kind) among them, with the section's IQM, interval and mean;
+    its verdicts' differences are the claims' own; its headroom and multi-objective numbers are their files'."""
+    from gym4real.bench.mo_reference import summary as mo_summary
+    from gym4real.bench.upper_label import label
+    from gym4real.core.mo_spec import mo_ids
+    from gym4real.core.registry import non_causal, registry
+
+    env_id = f"gym4real/{env}"
+    page = env_page(gen_pages, env_id, tmp_path, monkeypatch)
+    table = pd.read_csv(RESULTS / f"{env}-paper" / "summary.csv", index_col="policy")
+    rows = ROW.findall(page_section(page, "Results of the paper's agents"))
+    assert sorted(r[0] for r in rows) == sorted(table.index)  # every policy of the section, once
+    upper = non_causal(env_id)
+    assert [r[0] for r in rows if r[0] in upper] == [r[0] for r in rows[-len(upper) :]]  # last, not ranked
+    for policy, after, kind, iqm, low, high, mean in rows:
+        row = table.loc[policy]
+        for shown, value in ((iqm, row["iqm"]), (low, row["low"]), (high, row["high"]), (mean, row["mean"])):
+            assert shows(shown, value), (env, policy, shown, value)
+        if policy in upper:
+            assert policy + after == label(env_id, policy) and kind == "upper reference, not ranked"
+        else:
+            assert after == "" and kind == (f"paper agent ({row['seeds']} seeds)" if row["seeds"] else "baseline")
+    assert any(kind.startswith("paper agent") for _, _, kind, *_ in rows)
+    claims = [c for c in json.loads((RESULTS / "claims.json").read_text()) if c["env_id"] == env_id]
+    shown = [DIFFERENCE.search(line) for line in gen_pages.verdict_table(env_id)[2:]]
+    assert len(shown) == len([c for c in claims if c.get("paper", True)])
+    for found, claim in zip(shown, [c for c in claims if c.get("paper", True)], strict=True):
+        deciding = next(x for x in claim["comparisons"] if x["b"] == claim["deciding"])
+        assert found and (found.group(2), found.group(3)) == (deciding["a"], deciding["b"])
+        for text, key in zip(found.groups()[3:], ("estimate", "low", "high"), strict=True):
+            assert shows(text, deciding[key]), (env, claim["text"], key, text, deciding[key])
+    bench = ROOT / "docs" / "bench" / env_id.replace("/", "_") / "summary.csv"
+    if "## Headroom" in page and bench.is_file():  # the bench run's means, where it ran an upper reference
+        means = pd.read_csv(bench, index_col="policy")["objective_mean"]
+        for policy, value in re.findall(rf"^\| `(\w+)` \| ({NUMBER}) \|$", page_section(page, "Headroom"), re.M):
+            assert shows(value, means[policy]), (env, policy)
+    found_mo = [i for i in mo_ids() if registry().multi_objective[i] == env_id]
+    record = mo_summary(found_mo[0]) if found_mo else None
+    if record and "reference_point" in record:
+        text = page_section(page, "Multi-objective evaluation")
+        point = re.search(r"Reference point \(([^)]*)\)", text)
+        assert point and all(
+            shows(t.strip(), v) for t, v in zip(point.group(1).split(","), record["reference_point"], strict=True)
+        )
+        fronts = re.findall(rf"^\| `(\w+)` \| \w+ \| ({NUMBER}) \| ({NUMBER}) \|$", text, re.M)
+        assert sorted(f[0] for f in fronts) == sorted(record["reference_fronts"])
+        for name, hypervolume, eum in fronts:
+            front = record["reference_fronts"][name]
+            assert shows(hypervolume, front["hypervolume"]) and shows(eum, front["eum"]), (env, name)
+
+
+@pytest.mark.parametrize("env", SECTIONS)
+def test_the_main_jobs_lines_of_the_paper_agents_and_upper_references_are_the_results_own(env: str) -> None:
+    from gym4real.bench.reference import published_lines
+    from gym4real.bench.upper_label import label
+    from gym4real.core.registry import non_causal
+
+    env_id = f"gym4real/{env}"
+    table = pd.read_csv(RESULTS / f"{env}-paper" / "summary.csv", index_col="policy")
+    lines = published_lines(env_id)
+    assert lines[0].startswith("The paper's agents and the non-causal upper reference on this protocol")
+    expected = [p for p in table.index if table.loc[p, "kind"] == "agent"]
+    expected += [p for p in non_causal(env_id) if p in table.index]
+    assert len(lines) == 3 + len(expected)
+    for policy, line in zip(expected, lines[3:], strict=True):
+        agent = table.loc[policy, "kind"] == "agent"
+        name = policy if agent else label(env_id, policy)
+        found = re.fullmatch(
+            rf"  {re.escape(name)} +(paper agent|upper reference, not ranked) +(\d+|-) +"
+            rf"({NUMBER}) \[({NUMBER}), ({NUMBER})\]",
+            line,
+        )
+        assert found, line
+        assert found.group(2) == (str(table.loc[policy, "seeds"]) if agent else "-")
+        for text, column in zip(found.groups()[2:], ("iqm", "low", "high"), strict=True):
+            assert shows(text, table.loc[policy, column]), (env, policy, column, text)
+
+
+def test_the_main_job_prints_the_paper_agents_and_the_upper_reference_under_its_table(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The README's main job (`nox -s bench` runs `gym4real bench gym4real/elevator-v0`) on the test protocol."""
+    from gym4real.bench.reference import published_lines
+    from gym4real.cli import main
+
+    args = ["bench", "gym4real/elevator-v0", "--policies", "longest_first", "--out", str(tmp_path), "--quiet"]
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    lines = published_lines("gym4real/elevator-v0")
+    assert "\n".join(lines) in out and out.index("longest_first") < out.index(lines[0])
+    assert "hindsight (non-causal upper reference, exact)" in out and "  qlearning " in out and "  sarsa " in out
+    assert main([*args[:-1], "--env", "reward_coeff=2", "--quiet"]) == 0  # another protocol: nothing to compare
+    assert lines[0] not in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("env", ["dam-v0", "elevator-v0", "robofeeder-planning-v0"])
+def test_reproduces_text_report_names_the_paper_agent_and_the_upper_reference_with_its_kind(env: str) -> None:
+    """`gym4real reproduce` prints each section's summary: its numbers as the page writes them, a paper agent and
+    the upper reference (with its kind, as the figures label it) named so, each claim's verdict with its mark."""
+    from gym4real.bench.upper_label import label
+    from gym4real.core.registry import non_causal
+    from gym4real.results.reproduce import EnvReport, text_report
+
+    env_id = f"gym4real/{env}"
+    table = pd.read_csv(RESULTS / f"{env}-paper" / "summary.csv")
+    claims = [c for c in json.loads((RESULTS / "claims.json").read_text()) if c["env_id"] == env_id]
+    lines = "\n".join(text_report(env_id, "paper", EnvReport(table, claims))).splitlines()
+    assert lines[0] == f"== {env_id} (paper)"
+    rows = {line.split()[0]: line for line in lines[2 : 2 + len(table)]}
+    assert set(rows) == set(table["policy"])
+    for row in table.to_dict("records"):
+        line, policy = rows[row["policy"]], row["policy"]
+        kind = label(env_id, policy)[len(policy) + 2 : -1] if policy in non_causal(env_id) else None
+        expected = kind or ("paper agent" if row["kind"] == "agent" else "baseline")
+        assert f" {expected} " in line and f" {human(row['iqm'])} " in line and f" {human(row['low'])} " in line
+    assert any(f" {label(env_id, p)[len(p) + 2 : -1]} " in rows[p] for p in non_causal(env_id))
+    marks = {"holds": "✅", "refuted": "❌", "inconclusive": "❔"}
+    assert [line for line in lines if line.startswith("claim: ")] == [
+        f"claim: {c['text']} -> {marks[c['verdict']]} {c['verdict']}" for c in claims
+    ]
+    assert not any(re.search(r"\de[+-]\d", line) for line in lines)
+
+
+def test_an_env_whose_module_lies_in_no_package_ships_no_reference_runs(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A plugin's env defined in a single module has no ``reference/`` folder: `gym4real bench` shows no paper rows."""
+    from gym4real.bench import reference
+
+    monkeypatch.setattr(reference, "domain_package", lambda env_id: "json.decoder")  # a module, not a package
+    assert reference.load_reference("gym4real/elevator-v0") is None
+    assert reference.published_lines("gym4real/elevator-v0") == []

@@ -25,8 +25,18 @@ from gym4real.results.results_page import write_page
 ROOT = Path(__file__).resolve().parents[1]
 
 
+#: A verdict's mark on the page (results_page.SYMBOLS).
+MARKS = {"holds": "✅", "refuted": "❌", "inconclusive": "❔"}
+
+
 def _verdict_rows(text: str) -> list[str]:
-    return [line for line in text.splitlines() if re.match(r"\| `[a-z0-9-]+` \| (paper|quick)[^|]* \|", line)]
+    """The rows of the short verdict tables: env (budget under it), claim, verdict with its mark, difference."""
+    return [line for line in text.splitlines() if re.match(r"\| `[a-z0-9-]+`(<br>[^|]*)? \| [^|]+ \| [✅❌❔] ", line)]
+
+
+def _verdict_details(text: str) -> list[str]:
+    """The lines of the details blocks under the verdict tables: each claim in full, in the table's order."""
+    return [line for line in text.splitlines() if re.match(r"- `[a-z0-9-]+`: .+\. Verdict: [✅❌❔] ", line)]
 
 
 def test_the_readme_verdicts_are_the_results_pages() -> None:
@@ -246,7 +256,7 @@ def test_every_number_of_the_page_is_recomputed_from_episodes_csv(tmp_path: Path
         assert f"| dqn | {seed} | {human(value)} |" in text and f"{500 + seed:,} timesteps" in text
     for base in ("random", "p78", "p79", "default"):
         p, low, high = stats.probability_of_improvement(scores["dqn"], scores[base], True, False)
-        assert f"| dqn | {base} | {p:.3f} [{low:.3f}, {high:.3f}] |" in text
+        assert f"| dqn | {base} | {human(p)} {human_interval(low, high)} |" in text
     diff, low, high = stats.difference_ci(scores["dqn"], scores["default"], True, False, level=1 - 0.05 / 4)
     assert f"IQM dqn - default: {human(stats.snap(diff, scale))} {human_interval(low, high)}" in text
     assert "`p79` is identical to `p78` in every test episode" in text
@@ -307,7 +317,7 @@ def test_the_suite_score_of_each_paper_agent_is_recomputed_from_episodes_csv(tmp
     assert "Trained on `wds-v0`:" in text
     assert "| agent | runs | `wds-v0` | suite score (IQM) [95 % CI] | shortfall below the best rule [95 % CI] |" in text
     row = next(line for line in text.splitlines() if line.startswith("| dqn | 3 |"))
-    assert row.startswith(f"| dqn | 3 | {per_env:.4g} | {expected:.4g} [") and f"| {gap:.4g} [" in row
+    assert row.startswith(f"| dqn | 3 | {human(per_env)} | {human(expected)} [") and f"| {human(gap)} [" in row
     assert "0 = random, 1 = `default`" in text and "optimality gap" not in text.replace("*optimality gap*", "")
 
 
@@ -338,8 +348,8 @@ def test_quick_verdicts_are_pipeline_checks_and_stale_sections_are_flagged_whate
     # a second section (another env's folder name), from another code version, with no fingerprints
     _results_folder(tmp_path / "other", "quick", version="v0.9-dirty").rename(out / "zzz-v0-quick")
     text = write_page(out).read_text()
-    quick = [line for line in text.splitlines() if line.startswith("| `wds-v0` | quick |")]
-    paper_rows = [line for line in text.splitlines() if line.startswith("| `wds-v0` | paper |")]
+    quick = [line for line in _verdict_rows(text) if line.startswith("| `wds-v0`<br>quick |")]
+    paper_rows = [line for line in _verdict_rows(text) if line.startswith("| `wds-v0` |")]  # a plain paper budget
     assert quick and all("pipeline check, not a verdict" in line and "**" not in line for line in quick)
     assert paper_rows and all("**" in line for line in paper_rows)
     assert "**Stale sections, flagged below: zzz-v0-quick.**" in text
@@ -380,18 +390,63 @@ def test_numbers_are_written_for_people(value: float, shown: str) -> None:
     assert human_interval(3850.6, 17170.4) == "[3,851, 17,170]"
 
 
-def test_the_page_opens_with_the_summary_figure_and_the_verdicts_and_ends_with_the_methods(tmp_path: Path) -> None:
+def test_the_page_opens_with_the_verdicts_then_the_versions_and_the_summary_figure_and_ends_with_the_methods(
+    tmp_path: Path,
+) -> None:
     out = tmp_path / "out"
     _results_folder(out, "paper")
     text = write_page(out, tmp_path / "page").read_text()
-    figure, verdicts = text.index("](summary.png)"), text.index("| env | budget | paper's claim |")
-    first_env, methods = text.index("## `gym4real/wds-v0`"), text.index("## Methods")
-    assert figure < verdicts < first_env < methods
+    verdicts, versions = text.index("| env | paper's claim | verdict |"), text.index("Rendered by code version")
+    figure, methods = text.index("](summary.png)"), text.index("## Methods")
+    first_env = text.index("## `gym4real/wds-v0`")
+    assert text.index("## Verdicts") < verdicts < versions < figure < first_env < methods
+    assert text[text.index("![") :].split("\n", 1)[0].endswith("](summary.png)")  # the page's first figure
     assert (tmp_path / "page" / "summary.png").read_bytes()[:4] == b"\x89PNG"
-    for word in ("holds", "refuted", "inconclusive"):  # each verdict word defined once
-        assert len(re.findall(rf"^- \*\*{word}\*\*: ", text, re.M)) == 1, word
+    for word, mark in MARKS.items():  # each verdict word defined once, with its mark
+        assert len(re.findall(rf"^- {mark} \*\*{word}\*\*: ", text, re.M)) == 1, word
     assert text.index("**Statistics.**") > methods and text.index("**Rules of the verdicts.**") > methods
-    assert "does not hold" not in text and not re.search(r"\d\.\d+e[+-]\d", text)  # no 1.717e+04
+    assert "does not hold" not in text
+
+
+def test_the_verdict_table_is_narrow_each_verdict_has_its_mark_and_the_claim_in_full_lies_below(
+    tmp_path: Path,
+) -> None:
+    """Issue 45: four short columns (a claim never squeezed to a word per line), a mark per verdict, details below."""
+    out = tmp_path / "out"
+    _results_folder(out, "paper")
+    text = write_page(out, tmp_path / "page").read_text()
+    claims = json.loads((tmp_path / "page" / "claims.json").read_text())
+    head = text.index("| env | paper's claim | verdict | deciding difference [interval] |\n|---|---|---|---|\n")
+    rows, details = _verdict_rows(text), _verdict_details(text)
+    assert len(rows) == len(details) == len(claims) and text.index(rows[0]) > head
+    below = text.index('<details markdown="1">')
+    assert text.index(rows[-1]) < below < text.index(details[0]) < text.index("</details>")
+    for claim, row, detail in zip(claims, rows, details, strict=True):
+        cells = [cell.strip() for cell in row.strip("|").split("|")]
+        assert len(cells) == 4
+        assert cells[1] == claim["text"].split(" (")[0] and len(cells[1]) < len(claim["text"])  # the claim's own words
+        assert cells[2].startswith(f"{MARKS[claim['verdict']]} **{claim['verdict']}**")
+        assert max(len(cell) for cell in cells) <= 80, cells  # no cell long enough to squeeze the others
+        assert detail.startswith(f"- `wds-v0`: {claim['text']}. Verdict: {MARKS[claim['verdict']]} ")
+        assert "Rule: " in detail and "Deciding comparison: " in detail
+    per_comparison = re.findall(r"\| (holds|refuted|inconclusive) \|", text)  # a section's claim table, per comparison
+    assert not per_comparison and re.search(r"\| [✅❌❔] (holds|refuted|inconclusive) \|", text)
+
+
+def test_the_page_writes_every_number_one_way_with_no_exponent(tmp_path: Path) -> None:
+    """Issue 45: the headroom table wrote `-1.804e+04` beside `8,087`; every table now writes numbers as people do."""
+    out = tmp_path / "out"
+    folder = _results_folder(out, "paper")
+    episodes = pd.read_csv(folder / "episodes.csv")
+    episodes[["objective", "return", "dsr", "overflow"]] *= 1000.0  # scores in the tens of thousands
+    upper = episodes[episodes["policy"] == "default"].assign(policy="hindsight")  # wds's upper reference
+    upper["objective"] = upper["return"] = episodes["objective"].max() + 5000.0
+    pd.concat([episodes, upper]).to_csv(folder / "episodes.csv", index=False)
+    analyse(folder, "gym4real/wds-v0", "paper")
+    text = write_page(out).read_text()
+    headroom = text[text.index("## Headroom") :].split("\n## ", 1)[0]
+    assert "| `wds-v0` | `hindsight` " in headroom and re.search(r"\d,\d{3}", headroom)
+    assert not re.search(r"\d(\.\d+)?e[+-]?\d", text.replace("1e-6", "").replace("1e-9", "")), "an exponent"
 
 
 def test_the_summary_figure_keeps_a_zero_width_interval_inside_its_axes() -> None:
@@ -586,32 +641,44 @@ def test_planning_v0_s_oracle_is_beaten_and_called_no_bound_in_the_headroom_tabl
 def test_a_verdict_about_an_agent_that_plays_a_baseline_says_so_with_its_share_of_the_paper_budget() -> None:
     """Trading's PPO keeps its first checkpoint in every seed and scores as Buy&Hold on every test day."""
     text = (ROOT / "docs" / "results" / "index.md").read_text(encoding="utf-8")
-    rows = [line for line in _verdict_rows(text) if line.startswith("| `trading-v0` |")]
+    rows = [line for line in _verdict_rows(text) if line.startswith("| `trading-v0`<br>paper, stand-in |")]
+    details = [line for line in _verdict_details(text) if line.startswith("- `trading-v0`: ")]
+    assert len(rows) == len(details) == 4
     ppo = [line for line in rows if "| PPO " in line]
+    assert len(ppo) == 2 and all("`ppo` scores as `buy_and_hold`" in line for line in ppo)
+    assert not any("scores as" in line for line in rows if "| DQN " in line)
+    ppo = [line for line in details if ": PPO " in line]
     assert len(ppo) == 2 and all(
         "`ppo` learned nothing beyond `buy_and_hold`: every seed scores exactly as `buy_and_hold`" in line
         for line in ppo
     )
-    assert not any("learned nothing" in line for line in rows if "| DQN " in line)
-    assert all("**2.6 % of the paper's steps**" in line for line in rows)
+    assert not any("learned nothing" in line for line in details if ": DQN " in line)
+    assert all("**2.6 % of the paper's steps**" in line for line in details)
 
 
 def test_verdicts_carry_the_cross_machine_caveat_while_the_section_records_one(tmp_path: Path) -> None:
     text = (ROOT / "docs" / "results" / "index.md").read_text(encoding="utf-8")
-    rows = _verdict_rows(text)
+    rows, details = _verdict_rows(text), _verdict_details(text)
     robofeeder = [line for line in rows if line.startswith("| `robofeeder-")]
+    assert len(robofeeder) == 3 and all("<br>machine-dependent" in line for line in robofeeder)
+    assert not any("machine-dependent" in line for line in rows if not line.startswith("| `robofeeder-"))
+    robofeeder = [line for line in details if line.startswith("- `robofeeder-")]
     assert len(robofeeder) == 3 and all("**caveat**: these rows depend on the machine" in line for line in robofeeder)
-    assert not any("**caveat**" in line for line in rows if not line.startswith("| `robofeeder-"))
+    assert not any("**caveat**" in line for line in details if not line.startswith("- `robofeeder-"))
     out = tmp_path / "out"
     folder = _results_folder(out, "paper")
     report = json.loads((folder / "report.json").read_text())
     report["machine_dependent"] = "rerun on another machine, 3 of random's 20 test episodes score differently"
     (folder / "report.json").write_text(json.dumps(report))
-    flagged = _verdict_rows(write_page(out).read_text())
-    assert flagged and all("(rerun on another machine, 3 of random's 20 test episodes" in line for line in flagged)
+    text = write_page(out).read_text()
+    rows, details = _verdict_rows(text), _verdict_details(text)
+    assert rows and all(line.endswith("|") and "<br>machine-dependent |" in line for line in rows)
+    assert all("(rerun on another machine, 3 of random's 20 test episodes" in line for line in details)
     del report["machine_dependent"]  # a rerun found every row equal on another machine: the data lifts the caveat
     (folder / "report.json").write_text(json.dumps(report))
-    assert not any("caveat" in line for line in _verdict_rows(write_page(out).read_text()))
+    text = write_page(out).read_text()
+    lines = _verdict_rows(text) + _verdict_details(text)
+    assert lines and not any("machine-dependent" in line or "caveat" in line for line in lines)
 
 
 def _deciding_end(comparison: dict) -> float:

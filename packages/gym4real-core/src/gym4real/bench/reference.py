@@ -12,7 +12,8 @@ A domain distribution ships, for an environment ``gym4real/<name>``, two package
 :func:`export_reference` writes them from a results folder of ``gym4real reproduce``
 (``<name>-<budget>/episodes.csv`` and the provenance in ``report.json``; ``scripts/export_references.py``);
 :func:`load_reference` reads them, and :func:`check_fingerprint` refuses reference runs measured on
-another protocol than the installed environment's, naming each difference.
+another protocol than the installed environment's, naming each difference. :func:`published_lines` shows the
+paper agents' and the upper references' scores beside what ``gym4real bench`` ran.
 """
 
 from __future__ import annotations
@@ -29,10 +30,13 @@ import gymnasium as gym
 import numpy as np
 import pandas as pd
 
+from gym4real.bench import stats
 from gym4real.bench.benchmark import protocol
 from gym4real.bench.episodes import score_matrices
+from gym4real.bench.numbers import human, human_interval
+from gym4real.bench.upper_label import label
 from gym4real.core.errors import ConfigError, ReferenceMismatchError
-from gym4real.core.registry import env_spec, load_object, registry, slug
+from gym4real.core.registry import MARK, env_spec, load_object, non_causal, registry, slug
 
 #: Folder of the reference files inside a domain package.
 FOLDER = "reference"
@@ -144,7 +148,10 @@ def load_reference(env_id: str, folder: str | Path | None = None) -> Reference |
         env_id: A registered id.
         folder: A folder holding ``<name>.csv`` and ``<name>.json`` (default: the domain's ``reference/``).
     """
-    base = _folder(env_id, folder)
+    try:
+        base = _folder(env_id, folder)
+    except TypeError:  # the env's module lies in no package (a plugin's single module): it ships no reference runs
+        return None
     table, record = base / f"{slug(env_id)}.csv", base / f"{slug(env_id)}.json"
     if not table.is_file():
         return None
@@ -204,3 +211,55 @@ def export_reference(env_id: str, results: str | Path, budget: str = "paper", in
     record = {"env_id": env_id, "budget": budget, "fingerprint": installed, "manifest": manifest}
     (target / f"{slug(env_id)}.json").write_text(json.dumps(record, indent=1) + "\n")
     return written
+
+
+def published_lines(env_id: str) -> list[str]:
+    """The paper agents' and non-causal upper references' scores in the reference runs the env's domain ships.
+
+    The lines ``gym4real bench`` prints under its table of the test protocol: the reference runs are the
+    committed results (``docs/results/<name>-paper``, exported by :func:`export_reference`), not run here.
+    Each row: the IQM of the per-episode objective (a paper agent's training seeds pooled) with its 95 %
+    bootstrap interval, as the results page computes them (:func:`~gym4real.bench.stats.iqm_ci`); an upper
+    reference under its label with its kind (:func:`~gym4real.bench.upper_reference.label`), not ranked.
+    Empty when the domain ships no reference runs (or they hold neither); one line saying why when they were
+    measured on another protocol than the installed one.
+    """
+    reference = load_reference(env_id)
+    if reference is None:
+        return []
+    spec = protocol(env_id)
+    env = gym.make(env_id, **spec.env_kwargs)
+    try:
+        installed = fingerprint(env_id, env)
+    finally:
+        env.close()
+    try:
+        check_fingerprint(reference, installed)
+    except ReferenceMismatchError as exc:
+        return [f"The paper's agents are not shown: {exc}"]
+    upper = [p for p in non_causal(env_id) if p in reference.scores]
+    rows = []
+    for policy in [*reference.agents, *upper]:
+        trained = policy in reference.agents
+        iqm, low, high = stats.iqm_ci(reference.scores[policy], trained)
+        rows.append(
+            (
+                policy if trained else label(env_id, policy),
+                "paper agent" if trained else "upper reference, not ranked",
+                str(len(reference.seeds[policy])) if trained else "-",
+                f"{human(iqm)} {human_interval(low, high)}",
+            )
+        )
+    if not rows:
+        return []
+    made = reference.manifest.get("code_version", "?")
+    head = ("policy", "kind", "seeds", "objective IQM [95 % interval]")
+    widths = [max(len(row[i]) for row in [head, *rows]) for i in range(3)]
+    return [
+        f"The paper's agents and the {MARK} on this protocol, from the committed results",
+        f"(not run here: the reference runs of {reference.source}, budget `{reference.budget}`, code {made}):",
+        *(
+            f"  {name:{widths[0]}s}  {kind:{widths[1]}s}  {seeds:>{widths[2]}s}  {score}"
+            for name, kind, seeds, score in [head, *rows]
+        ),
+    ]

@@ -11,6 +11,7 @@ from gym4real.cli.common import ENV_ID_HELP, command, env_kwargs, user_code_impo
 
 def _bench(args: argparse.Namespace) -> None:
     from gym4real.bench.benchmark import benchmark
+    from gym4real.bench.reference import published_lines
     from gym4real.core.registry import slug
 
     user_code_importable()
@@ -27,6 +28,8 @@ def _bench(args: argparse.Namespace) -> None:
         out=out,
     )
     print(result.table())
+    if result.test_protocol and not args.env:  # the paper's agents beside, on the protocol they were tested on
+        print("\n".join(["", *published_lines(args.env_id)]))
     print(f"results and figures written to {out}/")
 
 

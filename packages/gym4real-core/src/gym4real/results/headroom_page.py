@@ -15,6 +15,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from gym4real.bench.numbers import human
+
 if TYPE_CHECKING:
     from gym4real.results.results_page import Section
 
@@ -26,11 +28,11 @@ HEADER = (
 
 
 def _num(value: float) -> str:
-    return f"{value:.4g}"
+    return human(value)
 
 
 def _share(value: float) -> str:
-    return f"{100 * value:.3g} %"
+    return f"{human(100 * value)} %"
 
 
 def headroom_table(sections: list[Section]) -> list[str]:

@@ -36,18 +36,17 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from gym4real.bench import stats
+from gym4real.bench import stats, versions
 from gym4real.bench.benchmark import BenchmarkResult, benchmark, protocol
-from gym4real.core.errors import Gym4RealError
-from gym4real.bench import versions
-from gym4real.results import analysis, fingerprints, provenance, workspace
 from gym4real.bench.seeds import SeedRequest, check_request, seeds_flag
+from gym4real.core.errors import Gym4RealError
 from gym4real.core.registry import slug
+from gym4real.results import analysis, fingerprints, provenance, workspace
 from gym4real.results.plan import Item, plan
-from gym4real.rl.progress import PlanProgress
 from gym4real.results.published_models import publish_models
 from gym4real.results.run_files import DamagedRunError, damaged_file
 from gym4real.results.runner import describe_error, thread_limits, train_plan
+from gym4real.rl.progress import PlanProgress
 from gym4real.rl.train import TrainingRun
 
 
@@ -57,6 +56,34 @@ class EnvReport:
 
     table: pd.DataFrame
     claims: list[dict[str, Any]]
+
+
+def text_report(env_id: str, budget: str, report: EnvReport) -> list[str]:
+    """One env's lines of :func:`reproduce`'s text report: its summary, then each claim's verdict with its mark.
+
+    Numbers are written as people write them (:func:`~gym4real.bench.numbers.human`); the kind column names a
+    paper agent, a baseline, or a non-causal upper reference with its kind (``non-causal upper reference,
+    exact``), as the figures label it.
+    """
+    from gym4real.bench.numbers import human
+    from gym4real.bench.upper_label import label
+    from gym4real.core.registry import non_causal
+    from gym4real.results.results_page import SYMBOLS
+
+    table = report.table.copy()
+    table["kind"] = [
+        label(env_id, p).removeprefix(f"{p} (").removesuffix(")")
+        if p in non_causal(env_id)
+        else {"agent": "paper agent"}.get(kind, kind)
+        for p, kind in zip(table["policy"], table["kind"], strict=True)
+    ]
+    return [
+        f"== {env_id} ({budget})",
+        table.to_string(index=False, float_format=human, na_rep=""),
+        "",
+        *(f"claim: {c['text']} -> {SYMBOLS[c['verdict']]} {c['verdict']}" for c in report.claims),
+        "",
+    ]
 
 
 def results_folder(out: Path, env_id: str, budget: str, trainer: str = "sb3") -> Path:
@@ -366,14 +393,7 @@ def reproduce(
         if isinstance(report, str):  # one env's failure (missing data, a bug) does not stop the others
             errors[env_id] = report
             continue
-        lines += [
-            f"== {env_id} ({budget})",
-            report.table.fillna("").to_string(float_format=lambda v: f"{v:.4g}"),
-            "",
-        ]
-        for c in report.claims:
-            lines.append(f"claim: {c['text']} -> {c['verdict']}")
-        lines.append("")
+        lines += text_report(env_id, budget, report)
     for env_id, error in errors.items():
         folder = results_folder(out, env_id, budget, trainer)
         folder.mkdir(parents=True, exist_ok=True)

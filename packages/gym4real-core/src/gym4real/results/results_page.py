@@ -22,17 +22,15 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from gym4real.results.provenance import RUNS_TEXT
-
 from gym4real.bench import stats
 from gym4real.bench.numbers import human
-from gym4real.bench.published import FOLDER as MODELS
 from gym4real.results import analysis, summary_figure, workspace
 from gym4real.results.artefacts import FOLDER, MANIFEST, PAGE, RENDERED, DamagedResultsError, read_json, trainer_of
 from gym4real.results.claims import QUANTITIES, RULES, VERDICTS
 from gym4real.results.fingerprints import section_changes
 from gym4real.results.headroom_page import headroom_table
 from gym4real.results.page_manifest import files_sha256, imported_by_all, section_record
+from gym4real.results.provenance import RUNS_TEXT
 from gym4real.results.published_models import FOLDER as MODELS
 from gym4real.results.section_provenance import currency_line, machine_caveat, models_lines, run_provenance
 from gym4real.results.stand_ins import budget_mark, difference_lines
@@ -206,19 +204,32 @@ def _trained_by(trainer: str) -> str:
     return "" if trainer == "sb3" else f", trainer `{label('ppo', trainer)}` (PPO trained by {trainer.upper()})"
 
 
+#: Each verdict's mark, so that the three are told apart at a glance (an emoji keeps its colour in any view).
+SYMBOLS = {"holds": "✅", "refuted": "❌", "inconclusive": "❔"}
+
+
 def _verdict(verdict: str, budget: str, bold: bool = True) -> str:
+    """A verdict as a table cell: its mark and its word (bold, unless a quick budget's pipeline check)."""
+    mark = SYMBOLS[verdict]
     if budget == "quick":
-        return f"{verdict} ({QUICK})"
-    return f"**{verdict}**" if bold else verdict
+        return f"{mark} {verdict} ({QUICK})"
+    return f"{mark} **{verdict}**" if bold else f"{mark} {verdict}"
 
 
 _STATISTIC = {"iqm": "IQM", "mean": "success rate", "spread": "spread"}
 
 
-def _comparison(c: dict[str, Any], comp: dict[str, Any], scale: float) -> str:
+def _difference(c: dict[str, Any], comp: dict[str, Any], scale: float) -> str:
+    """A comparison's difference with its interval: ``IQM ppo - max: 8,087 [3,760, 17,300]``."""
     stat = _STATISTIC.get(comp["statistic"], comp["statistic"])
     scale = 1.0 if comp["statistic"] == "mean" and c.get("quantity") == "success" else scale
-    text = f"{stat} {comp['a']} - {comp['b']}: {_fmt(comp['estimate'], scale)} {_ci(comp['low'], comp['high'], scale)}"
+    return f"{stat} {comp['a']} - {comp['b']}: {_fmt(comp['estimate'], scale)} {_ci(comp['low'], comp['high'], scale)}"
+
+
+def _comparison(c: dict[str, Any], comp: dict[str, Any], scale: float) -> str:
+    """A comparison in full: its difference, the objective beside, each seed's own interval and the margin."""
+    scale = 1.0 if comp["statistic"] == "mean" and c.get("quantity") == "success" else scale
+    text = _difference(c, comp, scale)
     if "objective" in comp:  # the objective, shown beside a claim on another quantity
         o = comp["objective"]
         text += f" (objective IQM beside: {_fmt(o['estimate'])} {_ci(o['low'], o['high'])})"
@@ -364,7 +375,7 @@ def _section(folder: Path, section: Section | None, version: str) -> list[str]:
         ]
         for row in section.improvement.to_dict("records"):
             lines.append(
-                f"| {row['agent']} | {row['baseline']} | {row['p']:.3f} [{row['low']:.3f}, {row['high']:.3f}] |"
+                f"| {row['agent']} | {row['baseline']} | {_fmt(float(row['p']))} {_ci(row['low'], row['high'])} |"
             )
         lines.append("")
     for own in (False, True):
@@ -384,11 +395,12 @@ def _section(folder: Path, section: Section | None, version: str) -> list[str]:
                 continue
             for i, comp in enumerate(c["comparisons"]):
                 lines.append(
-                    f"| {c['text'] if i == 0 else ''} | {_comparison(c, comp, scale)} | {comp['level']:.4g} "
+                    f"| {c['text'] if i == 0 else ''} | {_comparison(c, comp, scale)} | {_fmt(float(comp['level']))} "
                     f"| {_verdict(comp['verdict'], budget, bold=False)} | {comp['rule']} |"
                 )
             lines.append(
-                f"| | **claim** | {c['family_level']:.2g} | {verdict_cell(c, machine_caveat(report))} | {_rule(c)} |"
+                f"| | **claim** | {_fmt(float(c['family_level']))} | {verdict_cell(c, machine_caveat(report))} "
+                f"| {_rule(c)} |"
             )
         lines.append("")
         lines += [_shows(section, c) for c in claims if own] + ([""] if own else [])
@@ -415,6 +427,18 @@ def verdict_cell(c: dict[str, Any], caveat: str = "") -> str:
     return _verdict(c["verdict"], c["budget"]) + "".join(f"; {n}" for n in notes)
 
 
+def _headline(text: str) -> str:
+    """A claim's own words, without the parenthesis and reading that follow them (where the paper makes it)."""
+    return text.split(" (", 1)[0]
+
+
+def _short_notes(c: dict[str, Any], caveat: str) -> str:
+    """What a verdict cell of the short table says under the verdict: its caveat and what its agent learned."""
+    notes = [f"`{c['policy']}` scores as `{c['identical_to']}`"] if c.get("identical_to") else []
+    notes += ["machine-dependent"] if caveat else []
+    return "<br>" + "; ".join(notes) if notes else ""
+
+
 def claims_table(
     claims: list[dict[str, Any]],
     scales: dict[str, float] | None = None,
@@ -422,7 +446,13 @@ def claims_table(
     marks: dict[str, str] | None = None,
     caveats: dict[str, str] | None = None,
 ) -> str:
-    """A short Markdown table: per claim of the paper (``own``: per own check), verdict, rule, deciding comparison.
+    """Per claim of the paper (``own``: per own check): a short Markdown table, then each claim in full.
+
+    The table has four narrow columns: the env (with its budget under it unless a plain ``paper``), the claim's
+    own words, the verdict with its mark (:data:`SYMBOLS`; a caveat or what the agent learned under it) and the
+    deciding difference with its interval. A details block below gives each claim in full: where the paper
+    makes it, the budget, the verdict with its notes, the rule that decided it and the deciding comparison with
+    the seeds' own intervals and the margin.
 
     ``marks``: section name -> its budget column's entry (:func:`~gym4real.results.stand_ins.budget_mark`);
     ``caveats``: section name -> the caveat its verdicts carry (:func:`~gym4real.results.section_provenance.
@@ -432,19 +462,30 @@ def claims_table(
     if not claims:
         return ""
     column = "check of this suite's own" if own else "paper's claim"
-    lines = [
-        f"| env | budget | {column} | verdict | rule | deciding comparison: difference [interval] |",
-        "|---|---|---|---|---|---|",
-    ]
+    lines = [f"| env | {column} | verdict | deciding difference [interval] |", "|---|---|---|---|"]
+    details = []
     for c in claims:
         env = c["env_id"].split("/", 1)[-1]
-        scale = (scales or {}).get(f"{env}-{c['budget']}", 0.0)
+        key = f"{env}-{c['budget']}"
+        scale = (scales or {}).get(key, 0.0)
         comp = next((x for x in c["comparisons"] if x["b"] == c.get("deciding")), None)
-        where = _comparison(c, comp, scale) if comp else "-"
-        budget = (marks or {}).get(f"{env}-{c['budget']}", c["budget"])
-        caveat = (caveats or {}).get(f"{env}-{c['budget']}", "")
-        lines.append(f"| `{env}` | {budget} | {c['text']} | {verdict_cell(c, caveat)} | {_rule(c)} | {where} |")
-    return "\n".join(lines) + "\n"
+        budget = (marks or {}).get(key, c["budget"])
+        caveat = (caveats or {}).get(key, "")
+        under = "" if budget == "paper" else f"<br>{c['budget']}" + (", stand-in" if budget != c["budget"] else "")
+        lines.append(
+            f"| `{env}`{under} | {_headline(c['text'])} "
+            f"| {_verdict(c['verdict'], c['budget'])}{_short_notes(c, caveat)} "
+            f"| {_difference(c, comp, scale) if comp else '-'} |"
+        )
+        details.append(
+            f"- `{env}`: {c['text']}. Verdict: {verdict_cell(c, caveat)}. Budget: {budget}. Rule: {_rule(c)}. "
+            f"Deciding comparison: {_comparison(c, comp, scale) if comp else '-'}."
+        )
+    summary = (
+        f"<summary>Each {'check' if own else 'claim'} in full: where it is made, the budget, the rule that decided "
+        "it, the seeds' own intervals, the margin and the caveats</summary>"
+    )
+    return "\n".join([*lines, "", '<details markdown="1">', summary, "", *details, "", "</details>", ""])
 
 
 def _verdicts(
@@ -453,8 +494,11 @@ def _verdicts(
     """The verdict tables (the paper's claims, then this suite's own checks) and the three verdicts' definitions."""
     paper = sum(c.get("paper", True) for c in claims)
     own = claims_table(claims, scales, own=True, marks=marks, caveats=caveats)
+    legend = " · ".join(f"{SYMBOLS[word]} **{word}**" for word in VERDICTS)
     return [
         f"## Verdicts on the paper's claims ({paper})",
+        "",
+        f"{legend} (defined below the tables); each claim in full under its table.",
         "",
         claims_table(claims, scales, marks=marks, caveats=caveats),
         *(
@@ -469,7 +513,7 @@ def _verdicts(
         "The verdicts (each with the rule that decided it; the rules, statistics and levels are under "
         "[Methods](#methods)):",
         "",
-        *(f"- **{word}**: {words}." for word, words in VERDICTS.items()),
+        *(f"- {SYMBOLS[word]} **{word}**: {words}." for word, words in VERDICTS.items()),
         "",
     ]
 
@@ -594,10 +638,11 @@ def suite_scores(sections: list[Section]) -> list[str]:
         ]
         for policy in policies:
             score = suite_score.summary(runs[policy])
-            per_env = " | ".join(f"{score['per_env'][e]:.4g}" for e in envs)
+            per_env = " | ".join(_fmt(float(score["per_env"][e])) for e in envs)
             lines.append(
-                f"| {policy} | {score['runs']} | {per_env} | {score['iqm']:.4g} {_ci(score['low'], score['high'])} | "
-                f"{score['shortfall']:.4g} {_ci(score['shortfall_low'], score['shortfall_high'])} |"
+                f"| {policy} | {score['runs']} | {per_env} | {_fmt(float(score['iqm']))} "
+                f"{_ci(score['low'], score['high'])} | {_fmt(float(score['shortfall']))} "
+                f"{_ci(score['shortfall_low'], score['shortfall_high'])} |"
             )
         lines.append("")
     return lines
@@ -702,12 +747,12 @@ def write_page(out: Path, page: str | Path | None = None) -> Path:
     head = [
         "# Reproduced results",
         "",
+        *([f"**Stale sections, flagged below: {', '.join(others)}.**", ""] if others else []),
+        *_verdicts(claims, scales, marks, caveats),
         f"Rendered by code version `{record['rendered_by']}`; most sections trained at `{version}` (`manifest.json`). "
-        + (f"**Stale sections, flagged below: {', '.join(others)}.** " if others else "")
-        + f"Versions: {', '.join(f'{k} {v}' for k, v in record['versions'].items())}; {record['platform']}.",
+        f"Versions: {', '.join(f'{k} {v}' for k, v in record['versions'].items())}; {record['platform']}.",
         "",
         *_summary_figure(list(sections.values()), out),
-        *_verdicts(claims, scales, marks, caveats),
         *suite_scores(list(sections.values())),
         *headroom_table(list(sections.values())),
     ]
