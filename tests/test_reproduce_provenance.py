@@ -280,3 +280,11 @@ def test_a_data_file_found_nowhere_here_is_named_missing_not_changed() -> None:
     assert fingerprints._differences(recorded["data"], installed["data"], "data") == [
         "data.microgrid/demand/train: not found here"
     ]
+
+
+def test_the_committed_sections_verification_sentences_read_as_words() -> None:
+    """Issue 45: "the SHA-256 of the 0 data files" and "rerun by ba1df74-dirty" were printed on the page."""
+    for report in sorted(RESULTS.glob("*/report.json")):
+        for part, sentence in json.loads(report.read_text()).get("fingerprints_verified", {}).items():
+            assert "-dirty" not in sentence, (report.parent.name, part)
+            assert " of the 0 data files" not in sentence, (report.parent.name, part)
