@@ -204,8 +204,9 @@ def _trained_by(trainer: str) -> str:
     return "" if trainer == "sb3" else f", trainer `{label('ppo', trainer)}` (PPO trained by {trainer.upper()})"
 
 
-#: Each verdict's mark, so that the three are told apart at a glance (an emoji keeps its colour in any view).
-SYMBOLS = {"holds": "✅", "refuted": "❌", "inconclusive": "❔"}
+#: Each verdict's mark, so that the three are told apart at a glance (an emoji keeps its colour in any view);
+#: a claim whose agent has no test scores in the section (a JAX section's claims about ``ppo``) is not checked.
+SYMBOLS = {"holds": "✅", "refuted": "❌", "inconclusive": "❔", "not checked": "➖"}
 
 
 def _verdict(verdict: str, budget: str, bold: bool = True) -> str:
