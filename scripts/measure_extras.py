@@ -1,16 +1,17 @@
 """Measure what each extra of ``gym4real-core`` adds to an install (the README's table of extras).
 
-Each install gets its own fresh venv under ``ROOT``: ``ROOT/core`` holds ``./packages/gym4real-core`` alone and
-``ROOT/<extra>`` holds ``./packages/gym4real-core[<extra>]``, installed with ``pip install --no-compile`` (so no
+Each install gets its own fresh venv under ``DIR``: ``DIR/core`` holds ``./packages/gym4real-core`` alone and
+``DIR/<extra>`` holds ``./packages/gym4real-core[<extra>]``, installed with ``pip install --no-compile`` (so no
 bytecode is counted). An extra whose resolution brings torch gets the CPU build of torch first, from
 :data:`TORCH_INDEX`, as the comment on core's ``rl`` extra tells a user to do. A venv that exists already is
 measured as it is, so a second run only prints.
 
 The size of an install is the sum, over its distributions, of the files each one's ``RECORD`` lists (as found
 on disk), the venv's own pip and setuptools left out. What an extra adds is its venv's size less the thin
-core's; its biggest distributions are those it brings or replaces (another version), largest first.
+core's; its biggest distributions are those it brings or replaces (another version than core's), by the
+bytes each adds (a replacement: its size less the replaced one's), largest first.
 
-Usage: ``nice python scripts/measure_extras.py /tmp/extras [--extras rl,jax] [--jobs 2] [--json out.json]``
+Usage: ``nice python scripts/measure_extras.py DIR [--extras rl,jax] [--jobs 2] [--json out.json]``
 """
 
 from __future__ import annotations
@@ -46,7 +47,7 @@ print(json.dumps(out))
 
 @dataclass(frozen=True)
 class Added:
-    """What one extra adds to the thin core: bytes, distributions brought or replaced, and their sizes."""
+    """What one extra adds to the thin core: bytes, distributions brought or replaced, and the bytes each adds."""
 
     extra: str
     size: int
@@ -54,8 +55,9 @@ class Added:
     biggest: list[tuple[str, str, int]]
 
     def cells(self, top: int = 3) -> str:
-        """The table's ``adds | mostly`` cells, sizes in MB (10**6 bytes)."""
-        mostly = ", ".join(f"{name} {size / 1e6:.0f} MB" for name, _, size in self.biggest[:top])
+        """The table's ``adds | mostly`` cells: sizes in MB (10**6 bytes), the ``top`` biggest (none under 0.5 MB)."""
+        big = [(name, size) for name, _, size in self.biggest if size >= 0.5e6][:top]
+        mostly = ", ".join(f"{name} {size / 1e6:.0f} MB" for name, size in big)
         return f"{self.size / 1e6:.0f} MB ({self.count} distributions) | {mostly}"
 
 
@@ -97,7 +99,11 @@ def sizes(where: Path) -> dict[str, tuple[str, int]]:
 def added(extra: str, core: dict[str, tuple[str, int]], full: dict[str, tuple[str, int]]) -> Added:
     """What ``full`` (core with ``extra``) holds beyond ``core``."""
     brought = sorted(
-        ((name, version, size) for name, (version, size) in full.items() if core.get(name, ("", 0))[0] != version),
+        (
+            (name, version, size - core.get(name, ("", 0))[1])
+            for name, (version, size) in full.items()
+            if core.get(name, ("", 0))[0] != version
+        ),
         key=lambda item: -item[2],
     )
     total = sum(size for _, size in full.values()) - sum(size for _, size in core.values())
