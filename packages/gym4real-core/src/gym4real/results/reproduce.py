@@ -36,18 +36,17 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from gym4real.bench import stats
+from gym4real.bench import stats, versions
 from gym4real.bench.benchmark import BenchmarkResult, benchmark, protocol
-from gym4real.core.errors import Gym4RealError
-from gym4real.bench import versions
-from gym4real.results import analysis, fingerprints, provenance, workspace
 from gym4real.bench.seeds import SeedRequest, check_request, seeds_flag
+from gym4real.core.errors import Gym4RealError
 from gym4real.core.registry import slug
+from gym4real.results import analysis, fingerprints, provenance, workspace
 from gym4real.results.plan import Item, plan
-from gym4real.rl.progress import PlanProgress
 from gym4real.results.published_models import publish_models
 from gym4real.results.run_files import DamagedRunError, damaged_file
 from gym4real.results.runner import describe_error, thread_limits, train_plan
+from gym4real.rl.progress import PlanProgress
 from gym4real.rl.train import TrainingRun
 
 
@@ -201,9 +200,11 @@ def reproduce_env(
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "error.txt").unlink(missing_ok=True)
     spec = protocol(env_id)
-    from gym4real.core.registry import non_causal
+    from gym4real.core.registry import baseline_names, non_causal
 
-    baselines = list(dict.fromkeys([*spec.policies, *non_causal(env_id)]))  # with the upper references: headroom
+    claimed = [p for c in spec.claims for p in (c.policy, *c.others) if p in baseline_names(env_id)]
+    # with the baselines a claim names (`mpc` of a suite's own check) and the upper references (headroom)
+    baselines = list(dict.fromkeys([*spec.policies, *claimed, *non_causal(env_id)]))
     test_start = time.perf_counter()
     result = benchmark(env_id, [*baselines, *(run.policy for run in runs)], episodes="test")
     test_wall = time.perf_counter() - test_start
