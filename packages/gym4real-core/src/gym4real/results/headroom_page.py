@@ -47,9 +47,16 @@ def _share(value: float) -> str:
     return f"{100 * value:.3g} %"
 
 
+def _room(room: dict[str, float]) -> str:
+    """A headroom with its interval, written for people (:func:`~gym4real.bench.numbers.human`)."""
+    from gym4real.bench.numbers import human, human_interval
+
+    return f"{human(room['shortfall'])} {human_interval(room['low'], room['high'])}"
+
+
 def _learning(room: dict[str, float], agent: str) -> str:
     """The learning headroom's cell: ``mpc`` minus the agent with its interval, or none where the agent is ahead."""
-    cell = f"{_num(room['shortfall'])} [{_num(room['low'])}, {_num(room['high'])}]"
+    cell = _room(room)
     if room["shortfall"] > 0:
         return cell
     return f"none: `{agent}` scores at least `mpc` (`mpc` - agent {cell})"
@@ -65,17 +72,16 @@ def split_rows(name: str, upper: str, scores: dict[str, np.ndarray], agents: lis
         agents: The section's trained agents (none: no row).
     """
     from gym4real.bench import stats
+    from gym4real.bench.numbers import human
     from gym4real.bench.upper_reference import MPC, headroom_split
 
     if MPC not in scores or not agents:
         return []
     best = max(agents, key=lambda a: stats.iqm(scores[a]))
     split = headroom_split(scores[upper], scores[MPC], scores[best])
-    forecast = split["forecast"]
     return [
-        f"| `{name}` | `{upper}` {_num(stats.iqm(scores[upper]))} | {_num(stats.iqm(scores[MPC]))} "
-        f"| `{best}` {_num(stats.iqm(scores[best]))} "
-        f"| {_num(forecast['shortfall'])} [{_num(forecast['low'])}, {_num(forecast['high'])}] "
+        f"| `{name}` | `{upper}` {human(stats.iqm(scores[upper]))} | {human(stats.iqm(scores[MPC]))} "
+        f"| `{best}` {human(stats.iqm(scores[best]))} | {_room(split['forecast'])} "
         f"| {_learning(split['learning'], best)} |"
     ]
 
