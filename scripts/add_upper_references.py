@@ -5,7 +5,7 @@ references, every section of ``docs/results``) runs, for each paper section whos
 section's recorded protocol fingerprint equals the installed one, and no data file it read differs from the copy
 here), the policies on the test protocol and writes their rows into the section's ``episodes.csv`` beside the rows
 ``gym4real reproduce`` wrote (the rows of the trained agents and the other baselines are kept as they are, byte for
-byte; rows of the same policies measured before are replaced).
+byte; rows of the same policies measured before are replaced in their place).
 
 - Without ``--policies``: the env's upper references (``hindsight``, ``oracle``:
   :func:`gym4real.core.registry.non_causal`); ``report.json`` gains ``upper_references``.
@@ -49,6 +49,18 @@ def _blocking(changes: list[str]) -> list[str]:
     return [c for c in changes if not (c.startswith(("data.", "trainer.")) and c.endswith(NOT_FOUND))]
 
 
+def _merge(episodes: pd.DataFrame, added: pd.DataFrame) -> pd.DataFrame:
+    """``episodes`` with ``added``'s policies' rows: a policy measured before in its place, a new one at the end."""
+    order = list(dict.fromkeys([*episodes["policy"], *added["policy"]]))
+    new, parts = set(added["policy"]), []
+    for policy in order:
+        source = added if policy in new else episodes
+        parts.append(source[source["policy"] == policy])
+    merged = pd.concat(parts, ignore_index=True)
+    merged["seed"] = merged["seed"].astype("Int64")
+    return merged
+
+
 def _record(report: dict[str, Any], policies: list[str], upper: bool, record: dict[str, Any]) -> None:
     """Record who measured ``policies`` in ``report``; an earlier record of one of them loses it."""
     if upper:
@@ -89,9 +101,7 @@ def add(folder: Path, version: str | None = None, policies: Sequence[str] | None
     wall = time.perf_counter() - start
     episodes = pd.read_csv(folder / "episodes.csv")
     added = episodes_table(result, wanted, [])
-    kept = episodes[~episodes["policy"].isin(wanted)]
-    merged = pd.concat([kept, added[[c for c in added.columns if c in episodes.columns]]], ignore_index=True)
-    merged["seed"] = merged["seed"].astype("Int64")
+    merged = _merge(episodes, added[[c for c in added.columns if c in episodes.columns]])
     merged.to_csv(folder / "episodes.csv", index=False)
     option = f"--policies {','.join(wanted)} " if policies else ""
     record = {

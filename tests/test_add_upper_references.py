@@ -11,6 +11,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from gym4real.bench.benchmark import protocol
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -55,7 +57,8 @@ def test_the_upper_reference_rows_are_added_beside_the_sections_own_rows_which_s
     pd.testing.assert_frame_equal(episodes.iloc[: len(own)], own)  # the section's own rows, untouched
     upper = episodes[episodes["policy"] == "hindsight"]
     assert list(upper["episode"]) == list(range(20)) and upper["seed"].isna().all()
-    best_rule = own[own["seed"].isna()].groupby("policy")["objective"].mean().max()
+    rules = own[own["policy"].isin(protocol("gym4real/wds-v0").rule_based)]
+    best_rule = rules.groupby("policy")["objective"].mean().max()
     assert upper["objective"].mean() >= best_rule  # an upper reference: at least the best rule on average
     report = json.loads((folder / "report.json").read_text())
     assert report["upper_references"]["policies"] == ["hindsight"]
@@ -114,3 +117,12 @@ def test_a_policy_measured_again_leaves_the_earlier_record_of_the_others() -> No
     assert [r["code_version"] for r in report["added_baselines"]] == ["2", "3"]
     _script()._record(report, ["hindsight"], True, {"policies": ["hindsight"]})
     assert report["upper_references"] == {"policies": ["hindsight"]} and len(report["added_baselines"]) == 2
+
+
+def test_a_policy_measured_again_keeps_its_place_and_a_new_one_comes_last() -> None:
+    rows = [("random", None, 0, 1.0), ("ppo", 0, 0, 2.0), ("hindsight", None, 0, 3.0), ("mpc", None, 0, 4.0)]
+    episodes = pd.DataFrame(rows, columns=["policy", "seed", "episode", "objective"])
+    again = pd.DataFrame([("hindsight", None, 0, 3.5), ("oracle", None, 0, 5.0)], columns=episodes.columns)
+    merged = _script()._merge(episodes, again)
+    assert list(merged["policy"]) == ["random", "ppo", "hindsight", "mpc", "oracle"]
+    assert list(merged["objective"]) == [1.0, 2.0, 3.5, 4.0, 5.0] and str(merged["seed"].dtype) == "Int64"
