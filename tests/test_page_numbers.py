@@ -322,3 +322,27 @@ def test_an_env_whose_module_lies_in_no_package_ships_no_reference_runs(monkeypa
     monkeypatch.setattr(reference, "domain_package", lambda env_id: "json.decoder")  # a module, not a package
     assert reference.load_reference("gym4real/elevator-v0") is None
     assert reference.published_lines("gym4real/elevator-v0") == []
+
+
+def test_the_headroom_split_table_is_the_sections_mpc_rows_headrooms_and_own_checks() -> None:
+    """docs/headroom.md's *Forecast and learning headroom* table, recomputed from the three sections (issue 46)."""
+    from gym4real.bench.numbers import human, human_interval
+
+    start = HEADROOM.index("## Forecast and learning headroom")
+    rows = re.findall(r"^\| `(\w+)-v0` \| (.+) \|$", HEADROOM[start : HEADROOM.index("\n## ", start + 1)], re.M)
+    assert [env for env, _ in rows] == ["dam", "microgrid", "wds"]
+    for env, cells in rows:
+        upper, mpc, agent, forecast, learning, check = cells.split(" | ")
+        table = summary(env)
+        scores, seeds = score_matrices(pd.read_csv(RESULTS / f"{env}-v0-paper" / "episodes.csv"), env)
+        (best,) = [p for p in scores if seeds[p]]
+        assert upper == f"`hindsight` {human(table.loc['hindsight', 'iqm'])}"
+        row = table.loc["mpc"]
+        assert mpc == f"{human(row['iqm'])} {human_interval(row['low'], row['high'])}"
+        assert agent == f"{best.upper()} {human(table.loc[best, 'iqm'])}"
+        split = upper_reference.headroom_split(scores["hindsight"], scores["mpc"], scores[best])
+        for text, part in ((forecast, split["forecast"]), (learning, split["learning"])):
+            assert text == f"{human(part['shortfall'])} {human_interval(part['low'], part['high'])}", (env, text)
+        claims = json.loads((RESULTS / f"{env}-v0-paper" / "claims.json").read_text())
+        (own,) = [c for c in claims if not c["paper"] and c["deciding"] == "mpc"]
+        assert check == f"{best.upper()} beats MPC: **{own['verdict']}**"

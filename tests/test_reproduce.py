@@ -215,3 +215,14 @@ def test_all_means_the_envs_with_a_paper_comparison(tmp_path: Path) -> None:
     )
     assert done.returncode == 0, done.stderr
     assert "dam-v0 ppo/paper" in done.stdout and "dam-mo-v0" not in done.stdout  # the -mo id trains nothing
+
+
+def test_the_test_phase_runs_the_baselines_a_claim_names_beside_the_protocols_and_the_upper_references() -> None:
+    from gym4real.results.reproduce import tested_baselines
+
+    # dam's own check "PPO beats MPC" names `mpc`, outside the protocol's baselines
+    assert tested_baselines("gym4real/dam-v0") == ["random", "mean", "max", "ead", "historical", "mpc", "hindsight"]
+    assert tested_baselines("gym4real/wds-v0") == ["random", "p78", "p79", "default", "mpc", "hindsight"]
+    assert tested_baselines("gym4real/trading-v0")[-1] == "hindsight" and "mpc" not in tested_baselines(
+        "gym4real/trading-v0"
+    )

@@ -549,6 +549,10 @@ def test_the_published_claims_are_decided_from_the_published_episodes_under_the_
     assert picking["comparisons"][0]["estimate"] == pytest.approx(0.236, abs=5e-4)
     assert verdicts["robofeeder-picking-v1", "ppo", "above", "fixed"]["paper"] is False
     assert verdicts["dam-v0", "ppo", "above", ""]["others"] == ["random", "mean", "max", "ead"]
+    # the suite's own MPC checks (issue 46): mpc scores above the agent on all three
+    for env, agent in (("dam-v0", "ppo"), ("microgrid-v0", "ppo"), ("wds-v0", "dqn")):
+        own = verdicts[env, agent, "above", "mpc"]
+        assert own["paper"] is False and own["verdict"] == "refuted" and own["comparisons"][0]["high"] < 0, env
     assert {c["verdict"] for c in published} <= {"holds", "refuted", "inconclusive"}
 
 
@@ -708,3 +712,62 @@ def test_rerunning_the_analysis_with_five_bootstrap_seeds_changes_no_verdict_and
             ends = [_deciding_end(x) for x in deciding]
             width = float(np.mean([x["high"] - x["low"] for x in deciding]))
             assert max(ends) - min(ends) <= 0.05 * width, (folder.name, claims[0]["text"], ends, width)
+
+
+def test_the_page_shows_mpc_the_suites_mpc_check_and_the_headroom_split(tmp_path: Path) -> None:
+    """A wds section with `mpc` and `hindsight` rows: mpc's row, DQN-beats-MPC decided apart, both headrooms."""
+    from gym4real.bench.upper_reference import headroom_split
+    from gym4real.results.headroom_page import SPLIT_HEADER
+
+    out = tmp_path / "out"
+    folder = _results_folder(out, "paper")
+    episodes = pd.read_csv(folder / "episodes.csv")
+    best = episodes.groupby("episode")["objective"].max().to_numpy()
+    mpc = np.minimum(np.random.default_rng(1).normal(165, 2, 20), best + 0.5)
+    rows = [
+        {"policy": name, "seed": None, "episode": i, "objective": v, "return": v, "dsr": v + 50.0, "overflow": -50.0}
+        for name, values in (("mpc", mpc), ("hindsight", np.maximum(best, mpc) + 1.0))
+        for i, v in enumerate(values)
+    ]
+    episodes = pd.concat([episodes, pd.DataFrame(rows)], ignore_index=True)
+    episodes["seed"] = episodes["seed"].astype("Int64")
+    episodes.to_csv(folder / "episodes.csv", index=False)
+    analyse(folder, "gym4real/wds-v0", "paper")
+    report = json.loads((folder / "report.json").read_text())
+    command = "python scripts/add_upper_references.py --policies mpc docs/results/wds-v0-paper"
+    record = {"policies": ["mpc"], "code_version": "abc1234", "command": command, "test_wall_time_s": 342.0}
+    (folder / "report.json").write_text(json.dumps({**report, "added_baselines": [record]}))
+    text = write_page(out, tmp_path / "page").read_text()
+    assert (
+        f"Measured later, on the same test protocol: baselines `mpc` at code version `abc1234` (`{command}`, test "
+        "5.7 min); the other rows are this section's own." in text
+    )
+    scores, _ = _matrices(folder / "episodes.csv")
+    iqm, low, high = stats.iqm_ci(scores["mpc"], False)
+    assert f"| mpc | - | 20 | {human(iqm)} | {human_interval(low, high)} |" in text  # the section's row
+    check = next(c for c in json.loads((folder / "claims.json").read_text()) if c["deciding"] == "mpc")
+    assert check["paper"] is False and check["verdict"] == "refuted"  # mpc ~165, DQN's seeds 150, 60, 158
+    own = text[text.index("Checks of this suite's own") : text.index("The verdicts (each with")]
+    assert "| `wds-v0` | paper | DQN achieves a higher resilience than model-predictive control" in own
+    assert "| **refuted** |" in own and "IQM dqn - mpc: " in own
+    paper = text[text.index("## Verdicts on the paper's claims") : text.index("Checks of this suite's own")]
+    assert "model-predictive" not in paper
+    section = text[text.index("## `gym4real/wds-v0`") :]
+    assert section.index("Claims of the paper:") < section.index("IQM dqn - mpc: ")
+    assert section.index("This suite's own checks") < section.index("IQM dqn - mpc: ")
+    split = headroom_split(scores["hindsight"], scores["mpc"], scores["dqn"])
+    assert split["learning"]["shortfall"] > 0
+    table = text[text.index("### Forecast and learning headroom") :].split("\n## ", 1)[0]
+    assert SPLIT_HEADER in table and "the agent's training seeds as well" in table
+    cells = [f"{human(split[k]['shortfall'])} {human_interval(split[k]['low'], split[k]['high'])}" for k in split]
+    assert f"| `dqn` {human(stats.iqm(scores['dqn']))} | {cells[0]} | {cells[1]} |" in table
+
+
+def test_an_agent_at_or_above_mpc_has_no_learning_headroom() -> None:
+    from gym4real.results.headroom_page import split_rows
+
+    mpc = np.linspace(0.0, 19.0, 20)
+    scores = {"hindsight": mpc[None] + 3.0, "mpc": mpc[None], "ppo": np.vstack([mpc + 1.0, mpc + 2.0])}
+    (row,) = split_rows("dam-v0", "hindsight", scores, ["ppo"])
+    assert "| `ppo` 11 | 3 [3, 3] | none: `ppo` scores at least `mpc` (`mpc` - agent -1.5 [-2, -1]) |" in row
+    assert split_rows("dam-v0", "hindsight", {k: v for k, v in scores.items() if k != "mpc"}, ["ppo"]) == []

@@ -9,7 +9,7 @@ import pytest
 
 import gym4real
 from gym4real.bench import stats, suite_score
-from gym4real.bench.upper_reference import PlanCache, check_agent, check_protocol, headroom
+from gym4real.bench.upper_reference import PlanCache, check_agent, check_protocol, headroom, headroom_split
 from gym4real.cli import main
 from gym4real.cli.envs import summary, summary_text
 from gym4real.core.errors import ConfigError
@@ -121,6 +121,42 @@ def test_headroom_is_the_iqm_difference_with_a_paired_interval() -> None:
     assert 0 < room["low"] <= room["shortfall"] <= room["high"]
     with pytest.raises(ConfigError, match="same test episodes"):
         headroom(upper, agent[:, :5])
+
+
+def _iqm(values: np.ndarray) -> float:
+    """The interquartile mean of a number of values divisible by 4: the mean of the middle half, sorted."""
+    x = np.sort(np.ravel(values))
+    return float(x[x.size // 4 : 3 * x.size // 4].mean())
+
+
+def test_the_headroom_split_at_mpc_adds_up_to_the_headroom_by_brute_force() -> None:
+    rng = np.random.default_rng(1)
+    upper = rng.normal(10, 1, 12)
+    mpc = upper - rng.uniform(0, 3, 12)
+    agent = mpc[None, :] - rng.uniform(-1, 3, (3, 12))
+    split = headroom_split(upper, mpc, agent)
+    assert split["forecast"]["shortfall"] == pytest.approx(_iqm(upper) - _iqm(mpc))
+    assert split["learning"]["shortfall"] == pytest.approx(_iqm(mpc) - _iqm(agent))
+    total = split["forecast"]["shortfall"] + split["learning"]["shortfall"]
+    assert total == pytest.approx(headroom(upper, agent)["shortfall"])
+    for part in split.values():
+        assert part["low"] <= part["shortfall"] <= part["high"]
+
+
+def test_the_forecast_headroom_resamples_the_episodes_paired_and_the_learning_headroom_the_seeds_too() -> None:
+    """Scores built so that every resample is enumerable: the intervals are the extremes of the enumeration."""
+    mpc = np.array([0.0, 100.0, 200.0, 300.0])
+    upper = mpc + 10.0  # 10 above mpc in every episode: every paired episode resample gives 10
+    split = headroom_split(upper, mpc, np.vstack([mpc - 1.0, mpc - 5.0]))
+    assert (split["forecast"]["shortfall"], split["forecast"]["low"], split["forecast"]["high"]) == (10, 10, 10)
+    # one score per seed in every episode: the two seeds drawn with replacement give the learning headroom 1 (seed 0
+    # twice), 5 (seed 1 twice) or 3 (one each); the episodes drawn change none of them
+    flat = np.full(4, 50.0)
+    agent = np.vstack([flat - 1.0, flat - 5.0])
+    outcomes = {_iqm(flat) - _iqm(agent[[i, j]]) for i in (0, 1) for j in (0, 1)}
+    assert outcomes == {1.0, 3.0, 5.0}
+    learning = headroom_split(flat + 10.0, flat, agent)["learning"]
+    assert learning["shortfall"] == 3.0 and (learning["low"], learning["high"]) == (min(outcomes), max(outcomes))
 
 
 def test_plan_cache_round_trip_and_a_damaged_file_is_ignored(tmp_path: Path) -> None:

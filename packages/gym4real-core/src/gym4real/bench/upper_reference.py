@@ -43,6 +43,8 @@ from gym4real.core.registry import base_env, non_causal, registry, upper_referen
 
 #: The name a domain gives its hindsight planner.
 HINDSIGHT = "hindsight"
+#: The name a domain gives its causal model-predictive controller: the hindsight planner on forecasts.
+MPC = "mpc"
 
 
 def check_protocol(env_id: str) -> None:
@@ -111,6 +113,28 @@ def headroom(upper: np.ndarray, agent: np.ndarray, agent_trained: bool = True) -
         "low": low,
         "high": high,
     }
+
+
+def headroom_split(
+    upper: np.ndarray, mpc: np.ndarray, agent: np.ndarray, agent_trained: bool = True
+) -> dict[str, dict[str, float]]:
+    """An agent's headroom split at a causal model-predictive controller that forecasts what the upper reference knows.
+
+    ``forecast``: upper reference minus ``mpc``, what better forecasts could give (:func:`headroom` of ``mpc``; both
+    are baselines, so only the test episodes are resampled, paired). ``learning``: ``mpc`` minus the agent, what a
+    better learner could give where it is positive (:func:`headroom` of the agent from ``mpc``: the agent's training
+    seeds and the test episodes resampled, paired). Their estimates add up to the agent's headroom (IQM differences).
+
+    Args:
+        upper: The upper reference's per-episode objective, ``(episodes,)`` or ``(1, episodes)``.
+        mpc: The model-predictive controller's, the same shape.
+        agent: The agent's ``(seeds, episodes)``.
+        agent_trained: Whether the agent's rows are training seeds (resampled), not a baseline's one row.
+
+    Returns:
+        ``forecast`` and ``learning``, each as :func:`headroom` returns it (``shortfall`` with ``low``, ``high``).
+    """
+    return {"forecast": headroom(upper, mpc, agent_trained=False), "learning": headroom(mpc, agent, agent_trained)}
 
 
 def bound_references(env_id: str) -> list[str]:

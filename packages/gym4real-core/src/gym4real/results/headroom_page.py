@@ -9,6 +9,12 @@ of the headroom the agent closed, ``(agent - random) / (upper - random)`` with i
 (:func:`gym4real.bench.upper_reference.headroom_closed`), and where the upper reference sits on the suite
 scale (0 = ``random``, 1 = the best rule-based baseline). A row whose upper reference is not a bound has no
 headroom and no share: an agent can score more than it.
+
+Where a section also holds the causal model-predictive baseline ``mpc`` (the upper reference's planner on
+forecasts), the headroom of the best paper agent is split in two
+(:func:`gym4real.bench.upper_reference.headroom_split`): the **forecast headroom** (upper reference minus ``mpc``:
+what better forecasts could give) and the **learning headroom** (``mpc`` minus the agent, where it is positive: what
+a better learner could give).
 """
 
 from __future__ import annotations
@@ -18,7 +24,15 @@ from typing import TYPE_CHECKING
 from gym4real.bench.numbers import human
 
 if TYPE_CHECKING:
+    import numpy as np
+
     from gym4real.results.results_page import Section
+
+#: The columns of the table of the headroom split at ``mpc``.
+SPLIT_HEADER = (
+    "| env | upper reference | `mpc` (causal) | best agent | forecast headroom: upper reference - `mpc` [95 % CI] "
+    "| learning headroom: `mpc` - agent, where positive [95 % CI] |"
+)
 
 #: The columns of the headroom table.
 HEADER = (
@@ -35,6 +49,45 @@ def _share(value: float) -> str:
     return f"{human(100 * value)} %"
 
 
+def _room(room: dict[str, float]) -> str:
+    """A headroom with its interval, written for people (:func:`~gym4real.bench.numbers.human`)."""
+    from gym4real.bench.numbers import human, human_interval
+
+    return f"{human(room['shortfall'])} {human_interval(room['low'], room['high'])}"
+
+
+def _learning(room: dict[str, float], agent: str) -> str:
+    """The learning headroom's cell: ``mpc`` minus the agent with its interval, or none where the agent is ahead."""
+    cell = _room(room)
+    if room["shortfall"] > 0:
+        return cell
+    return f"none: `{agent}` scores at least `mpc` (`mpc` - agent {cell})"
+
+
+def split_rows(name: str, upper: str, scores: dict[str, np.ndarray], agents: list[str]) -> list[str]:
+    """The rows of the headroom split of one env: its best agent's forecast and learning headroom at ``mpc``.
+
+    Args:
+        name: The env's name.
+        upper: Its upper reference (a bound) measured in the section.
+        scores: Policy -> ``(runs, episodes)`` objective matrix of the section (with ``mpc`` and ``upper``).
+        agents: The section's trained agents (none: no row).
+    """
+    from gym4real.bench import stats
+    from gym4real.bench.numbers import human
+    from gym4real.bench.upper_reference import MPC, headroom_split
+
+    if MPC not in scores or not agents:
+        return []
+    best = max(agents, key=lambda a: stats.iqm(scores[a]))
+    split = headroom_split(scores[upper], scores[MPC], scores[best])
+    return [
+        f"| `{name}` | `{upper}` {human(stats.iqm(scores[upper]))} | {human(stats.iqm(scores[MPC]))} "
+        f"| `{best}` {human(stats.iqm(scores[best]))} | {_room(split['forecast'])} "
+        f"| {_learning(split['learning'], best)} |"
+    ]
+
+
 def headroom_table(sections: list[Section]) -> list[str]:
     """The page's headroom section (empty when no env of the page has an upper reference)."""
     from gym4real.bench import stats, suite_score, upper_reference
@@ -44,6 +97,7 @@ def headroom_table(sections: list[Section]) -> list[str]:
     from gym4real.core.registry import upper_reference as spec_of
 
     rows: list[str] = []
+    split: list[str] = []
     for section in sections:
         env_id = section.report["env_id"]
         upper = non_causal(env_id)
@@ -65,6 +119,8 @@ def headroom_table(sections: list[Section]) -> list[str]:
         best_rule = f"`{scale.best}` {_num(scale.top)}" if scale.best else "-"
         for u in measured:
             kind = spec_of(env_id, u)
+            if kind.is_bound:
+                split += split_rows(name, u, scores, agents)
             top = stats.iqm(scores[u])
             on_scale = f"{_num(float(scale.normalise(top)))}" if scale.usable and kind.is_bound else "-"
             head = f"| `{name}` | `{u}` {_num(top)} | {kind.bound_words()} |"
@@ -101,4 +157,26 @@ def headroom_table(sections: list[Section]) -> list[str]:
         "|---|---|---|---|---|---|---|---|",
         *rows,
         "",
+        *(
+            [
+                "### Forecast and learning headroom",
+                "",
+                "Where a section holds the causal model-predictive baseline `mpc` (the upper reference's planner run "
+                "on forecasts of what the upper reference is handed, replanned as the episode unfolds), the best paper "
+                "agent's headroom splits in two: the **forecast headroom**, upper reference minus `mpc`, what better "
+                "forecasts could give; and the **learning headroom**, `mpc` minus the agent where it is positive, what "
+                "a better learner could give (none where the agent scores at least `mpc`). IQMs of the per-episode "
+                "objective; the two add up to the agent's headroom above. Intervals: 95 % percentile bootstrap, the "
+                "test episodes resampled (paired across the policies) and, for the learning headroom, the agent's "
+                "training seeds as well; the forecast headroom compares two baselines, so only the episodes are "
+                "resampled.",
+                "",
+                SPLIT_HEADER,
+                "|---|---|---|---|---|---|",
+                *split,
+                "",
+            ]
+            if split
+            else []
+        ),
     ]

@@ -207,6 +207,19 @@ def _curves(runs: list[TrainingRun], folder: Path) -> None:
     pd.concat(frames).to_csv(folder / "learning_curves.csv", index=False)
 
 
+def tested_baselines(env_id: str) -> list[str]:
+    """The baselines the test phase of ``env_id`` runs: the protocol's, those its claims name, the upper references.
+
+    A check of this suite's own may compare with a registered baseline outside the protocol's (``mpc``); the upper
+    references give the headroom.
+    """
+    from gym4real.core.registry import baseline_names, non_causal
+
+    spec = protocol(env_id)
+    claimed = [p for c in spec.claims for p in (c.policy, *c.others) if p in baseline_names(env_id)]
+    return list(dict.fromkeys([*spec.policies, *claimed, *non_causal(env_id)]))
+
+
 def reproduce_env(
     env_id: str,
     budget: str,
@@ -229,9 +242,7 @@ def reproduce_env(
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "error.txt").unlink(missing_ok=True)
     spec = protocol(env_id)
-    from gym4real.core.registry import non_causal
-
-    baselines = list(dict.fromkeys([*spec.policies, *non_causal(env_id)]))  # with the upper references: headroom
+    baselines = tested_baselines(env_id)
     test_start = time.perf_counter()
     result = benchmark(env_id, [*baselines, *(run.policy for run in runs)], episodes="test")
     test_wall = time.perf_counter() - test_start

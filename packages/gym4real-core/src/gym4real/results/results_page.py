@@ -277,17 +277,22 @@ def _shows(section: Section, claim: dict[str, Any]) -> str:
 
 
 def _upper_references_line(report: dict[str, Any]) -> list[str]:
-    """The line saying who measured the upper references of a section published before they existed."""
-    added = report.get("upper_references")
-    if not added:
+    """The line saying who measured the rows added to a section after it was published (upper references, baselines).
+
+    ``report.json`` records them (``scripts/add_upper_references.py``): the upper references under
+    ``upper_references``, causal baselines (``mpc``) under ``added_baselines``.
+    """
+    records = [(r, "upper references") for r in [report.get("upper_references")] if r]
+    records += [(r, "baselines") for r in report.get("added_baselines", [])]
+    if not records:
         return []
-    names = ", ".join(f"`{p}`" for p in added["policies"])
-    return [
-        f"Upper references {names} measured later, on the same test protocol, at code version "
-        f"`{added['code_version']}` (`{added['command']}`, test {_duration(added['test_wall_time_s'])}); the other "
-        "rows are this section's own.",
-        "",
+    parts = [
+        f"{what} {', '.join(f'`{p}`' for p in r['policies'])} at code version `{r['code_version']}` "
+        f"(`{r['command']}`, test {_duration(r['test_wall_time_s'])})"
+        for r, what in records
     ]
+    text = "; ".join(parts)
+    return [f"Measured later, on the same test protocol: {text}; the other rows are this section's own.", ""]
 
 
 def _section(folder: Path, section: Section | None, version: str) -> list[str]:
