@@ -107,6 +107,15 @@ def fingerprint(env_id: str, env: gym.Env[Any, Any]) -> dict[str, Any]:
     }
 
 
+def installed_fingerprint(env_id: str) -> dict[str, Any]:
+    """The fingerprint of ``env_id``'s test protocol as installed (:func:`fingerprint` of an env made for it)."""
+    env = gym.make(env_id, **protocol(env_id).env_kwargs)
+    try:
+        return fingerprint(env_id, env)
+    finally:
+        env.close()
+
+
 def check_fingerprint(reference: Reference, installed: dict[str, Any]) -> None:
     """Refuse reference runs measured on another protocol than ``installed``'s.
 
@@ -189,12 +198,7 @@ def export_reference(env_id: str, results: str | Path, budget: str = "paper", in
         raise ConfigError(f"no `{table}`: run `gym4real reproduce {env_id} --budget {budget}` into `{results}` first")
     frame = pd.read_csv(table)
     scores, _ = score_matrices(frame, str(table))
-    spec = protocol(env_id)
-    env = gym.make(env_id, **spec.env_kwargs)
-    try:
-        installed = fingerprint(env_id, env)
-    finally:
-        env.close()
+    installed = installed_fingerprint(env_id)
     found = {m.shape[1] for m in scores.values()}
     if found != {installed["episodes"]}:
         raise ConfigError(
@@ -220,19 +224,14 @@ def published_lines(env_id: str) -> list[str]:
     committed results (``docs/results/<name>-paper``, exported by :func:`export_reference`), not run here.
     Each row: the IQM of the per-episode objective (a paper agent's training seeds pooled) with its 95 %
     bootstrap interval, as the results page computes them (:func:`~gym4real.bench.stats.iqm_ci`); an upper
-    reference under its label with its kind (:func:`~gym4real.bench.upper_reference.label`), not ranked.
+    reference under its label with its kind (:func:`~gym4real.bench.upper_label.label`), not ranked.
     Empty when the domain ships no reference runs (or they hold neither); one line saying why when they were
     measured on another protocol than the installed one.
     """
     reference = load_reference(env_id)
     if reference is None:
         return []
-    spec = protocol(env_id)
-    env = gym.make(env_id, **spec.env_kwargs)
-    try:
-        installed = fingerprint(env_id, env)
-    finally:
-        env.close()
+    installed = installed_fingerprint(env_id)
     try:
         check_fingerprint(reference, installed)
     except ReferenceMismatchError as exc:

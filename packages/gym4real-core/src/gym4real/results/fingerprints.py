@@ -53,17 +53,10 @@ def _sha256_json(value: Any) -> str:
 
 
 def protocol_fingerprint(env_id: str) -> dict[str, Any]:
-    """The installed test protocol of ``env_id`` (:func:`gym4real.bench.reference.fingerprint`)."""
-    import gymnasium as gym
+    """The installed test protocol of ``env_id`` (:func:`gym4real.bench.reference.installed_fingerprint`)."""
+    from gym4real.bench.reference import installed_fingerprint
 
-    from gym4real.bench.benchmark import protocol
-    from gym4real.bench.reference import fingerprint
-
-    env = gym.make(env_id, **protocol(env_id).env_kwargs)
-    try:
-        return fingerprint(env_id, env)
-    finally:
-        env.close()
+    return installed_fingerprint(env_id)
 
 
 #: The data fingerprint of a file found nowhere here (nor a stand-in in its place): no copy to hash.
