@@ -371,17 +371,21 @@ def pack_figures(folder: Path, colours: int = 128) -> list[Path]:
     return packed
 
 
-def verdict_table(env_id: str | None = None) -> list[str]:
-    """The verdict table of the results page (``docs/results/index.md``): its head and rows (one env's with
-    ``env_id``); empty when the page has no row for it."""
+#: The first cells of the results page's two verdict tables: the paper's claims, and the suite's own checks.
+PAPER_CLAIMS, OWN_CHECKS = "| env | paper's claim |", "| env | check of this suite's own |"
+
+
+def verdict_table(env_id: str | None = None, table: str = PAPER_CLAIMS) -> list[str]:
+    """A verdict table of the results page (``docs/results/index.md``), the paper's claims' by default: its head
+    and rows (one env's with ``env_id``); empty when the page has no row for it."""
     results = DOCS / "results" / "index.md"
     text = results.read_text(encoding="utf-8").splitlines() if results.is_file() else []
-    head = [i for i, line in enumerate(text) if line.startswith("| env | paper's claim |")]
+    head = [i for i, line in enumerate(text) if line.startswith(table)]
     if not head:
         return []
     env = re.escape(env_id.split("/")[-1]) if env_id else "[a-z0-9-]+"
     end = next((i for i in range(head[0], len(text)) if not text[i].startswith("|")), len(text))
-    # the paper's claims' table only; an env's budget, when not a plain `paper`, is under its name
+    # an env's budget, when not a plain `paper`, is under its name
     rows = [line for line in text[head[0] + 2 : end] if re.match(rf"\| `{env}`(<br>[^|]*)? \|", line)]
     return [*text[head[0] : head[0] + 2], *rows] if rows else []
 
@@ -398,9 +402,9 @@ def suite_score_table() -> list[str]:
 
 
 def _reproduction(env_id: str) -> list[str]:
-    """The env's rows of the results page's verdict table, when it has some."""
-    table = verdict_table(env_id)
-    if not table:
+    """The env's rows of the results page's verdict tables (the paper's claims, then the suite's own checks)."""
+    claims, own = verdict_table(env_id), verdict_table(env_id, OWN_CHECKS)
+    if not claims and not own:
         return []
     return [
         "## Reproduction",
@@ -408,8 +412,8 @@ def _reproduction(env_id: str) -> list[str]:
         f"`gym4real reproduce {env_id}`: the paper's claims checked over training seeds; tables, learning curves "
         "and figures in the [reproduced results](../results/index.md).",
         "",
-        *table,
-        "",
+        *([*claims, ""] if claims else []),
+        *([*own, ""] if own else []),
     ]
 
 
