@@ -175,13 +175,14 @@ def bench(session: nox.Session) -> None:
 #: `nox -s docs` builds the pages from them; `nox -s docs -- --refresh` re-runs the benchmarks into it first.
 BENCH = ROOT / "docs" / "bench"
 #: What the docs session does and how long it takes, said at its start. Measured on a 2-core machine: the build
-#: took 92 CPU-seconds (the tutorials about 45, the GIFs 16) and a new venv's installs about 110 more.
+#: took 92 CPU-seconds (the tutorials about 45, the GIFs 16) and a new venv's installs about 110 more. A fresh
+#: clone's whole session at 95dcb61 (load 1.5 to 2, pip's cache warm): 4 min 17 s of wall time, "37 pages, 0 problems".
 DOCS_PLAN = (
     "the site from the committed results: the env pages' benchmark figures from docs/bench/ (no benchmark "
     "runs), an episode GIF per env recorded here, `mkdocs build --strict` executing the tutorials of "
     "examples/tutorials/, then every page opened in Chromium. About 1.5 CPU-minutes, plus about 2 for the "
-    "installs of a new venv (torch's CPU build, every package, the site's plugins): 3 to 4 minutes on an idle "
-    "2-core machine, several times that on a busy one"
+    "installs of a new venv (torch's CPU build, every package, the site's plugins): 4 to 5 minutes on an idle "
+    "2-core machine (4 min 17 s measured on a fresh clone), several times that on a busy one"
 )
 #: The warnings of `mkdocs build`: deprecations shown once per module, as mkdocs shows them, but the one of
 #: `mkdocs.utils.warning_filter` (a no-op since MkDocs 1.2), which mkdocs-gallery's compatibility module still
