@@ -383,6 +383,9 @@ def test_the_page_prints_no_machine_path(text: str, shown: str) -> None:
         (-0.0, "0"),
         (1234567.0, "1,235,000"),
         (float("nan"), "-"),
+        (2.912e-06, "0.000002912"),  # wds's forecast headroom end: no exponent beside the page's other numbers
+        (-2.5e-05, "-0.000025"),
+        (9.99996e-05, "0.0001"),
     ],
 )
 def test_numbers_are_written_for_people(value: float, shown: str) -> None:
@@ -774,3 +777,10 @@ def test_an_agent_at_or_above_mpc_has_no_learning_headroom() -> None:
     (row,) = split_rows("dam-v0", "hindsight", scores, ["ppo"])
     assert "| `ppo` 11 | 3 [3, 3] | none: `ppo` scores at least `mpc` (`mpc` - agent -1.5 [-2, -1]) |" in row
     assert split_rows("dam-v0", "hindsight", {k: v for k, v in scores.items() if k != "mpc"}, ["ppo"]) == []
+
+
+def test_the_committed_page_writes_no_number_with_an_exponent() -> None:
+    """Issue 45's one number format on the published page too (wds's forecast headroom read `2.912e-06`)."""
+    text = (ROOT / "docs" / "results" / "index.md").read_text(encoding="utf-8")
+    words = re.sub(r"`[^`]*`", "", text)  # not in code spans (a commit hash such as `6e5f6c8`)
+    assert not re.search(r"\d(\.\d+)?e[+-]?\d", words.replace("1e-6", "").replace("1e-9", "")), "an exponent"

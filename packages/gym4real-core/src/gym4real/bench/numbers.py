@@ -12,7 +12,7 @@ def human(value: float) -> str:
     """``value`` with :data:`DIGITS` significant digits, as a person writes it.
 
     ``17170.4`` -> ``17,170``; ``8087.3`` -> ``8,087``; ``0.393512`` -> ``0.3935``; ``-0.00233333`` ->
-    ``-0.002333``; NaN -> ``-``. Only magnitudes below 1e-4 keep an exponent (``2.5e-05``); -0 is ``0``.
+    ``-0.002333``; ``2.912e-06`` -> ``0.000002912`` (never an exponent); NaN -> ``-``; -0 is ``0``.
     """
     if math.isnan(value):
         return "-"
@@ -23,6 +23,9 @@ def human(value: float) -> str:
         return "0"
     if abs(rounded) >= 1000:
         return f"{rounded:,.0f}"
+    if abs(rounded) < 1e-4:  # where the g format turns to an exponent: the same digits after the zeros
+        decimals = DIGITS - 1 - math.floor(math.log10(abs(rounded)))
+        return f"{rounded:.{decimals}f}".rstrip("0").rstrip(".")
     return f"{rounded:.{DIGITS}g}"
 
 
