@@ -81,8 +81,9 @@ def figure(panels: list[tuple[str, str, pd.DataFrame]]) -> Any:
 
     from gym4real.bench.numbers import human
 
-    heights = [0.5 + 0.32 * len(s) for _, _, s in panels]
-    names = {env_id: _labels(env_id, ordered(env_id, s)) for env_id, _, s in panels}
+    shown = [(env_id, objective, ordered(env_id, s)) for env_id, objective, s in panels]  # upper references last
+    heights = [0.5 + 0.32 * len(s) for _, _, s in shown]
+    names = {env_id: _labels(env_id, s) for env_id, _, s in shown}
     longest = max(len(label) for labels in names.values() for label in labels)
     fig, axes = plt.subplots(
         len(panels),
@@ -92,8 +93,7 @@ def figure(panels: list[tuple[str, str, pd.DataFrame]]) -> Any:
         gridspec_kw={"height_ratios": heights},
         layout="constrained",
     )
-    for ax, (env_id, objective, given) in zip(axes[:, 0], panels, strict=True):
-        summary = ordered(env_id, given)
+    for ax, (env_id, objective, summary) in zip(axes[:, 0], shown, strict=True):
         row_kinds = kinds(env_id, summary)
         y = np.arange(len(summary))[::-1]
         for row, pos, kind in zip(summary.to_dict("records"), y, row_kinds, strict=True):
