@@ -99,7 +99,7 @@ class OnnxPickingAgent(_OnnxPolicy):
         if self.mode == "sample":
             if rng is None:
                 raise PolicyError("a sampling agent needs the caller's `rng` (np.random.Generator)")
-            std = exp(self.log_std).astype(np.float32)
+            std = exp(np.asarray(self.log_std, dtype=float)).astype(np.float32)
             action = action + std * rng.standard_normal(3).astype(np.float32)
         if self.clip:
             action = np.clip(action, -1.0, 1.0)
