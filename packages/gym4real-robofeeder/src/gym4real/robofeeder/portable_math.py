@@ -10,14 +10,14 @@ simulation path is computed here instead:
 * products and norms as elementwise numpy multiplications added one term at a time, left to right (each
   multiplication and addition is a separate, correctly rounded IEEE operation: no BLAS, no fused
   multiply-add, no reordering);
-* solves by Gaussian elimination with partial pivoting written with the same elementwise operations;
+* solves by Gaussian elimination with partial pivoting on Python floats, in a fixed order;
 * elementary functions through Python's :mod:`math` (the C library's ``libm``, which MuJoCo uses too).
   Scalars call :mod:`math` directly; :func:`atan2`, :func:`arccos` and :func:`exp` apply it elementwise to
   arrays.
 
 The results are identical on any x86-64 CPU with AVX2 and FMA (Intel since Haswell, AMD since Zen),
 whatever kernels OpenBLAS or numpy dispatch there. The matrices are tiny (at most 6 x 6), so the Python
-loops cost microseconds.
+loops cost a fraction of a millisecond.
 """
 
 from __future__ import annotations
@@ -118,5 +118,5 @@ def arccos(x: ArrayLike) -> np.ndarray:
 
 
 def exp(x: ArrayLike) -> np.ndarray:
-    """Elementwise ``math.exp`` (float64)."""
+    """Elementwise ``math.exp`` (float64); raises ``OverflowError`` above about 709, where numpy gives inf."""
     return np.asarray(_EXP(x), dtype=float)
