@@ -16,7 +16,7 @@ Usage (from the repository root; ``MUJOCO_GL=egl OMP_NUM_THREADS=1 GYM4REAL_DATA
     python scripts/trace_robofeeder.py trace --env picking-v0 --policy random --episodes 5 --out a.jsonl
     NPY_DISABLE_CPU_FEATURES="AVX512F AVX512CD AVX512_SKX" python scripts/trace_robofeeder.py trace ... --out b.jsonl
     python scripts/trace_robofeeder.py diff a.jsonl b.jsonl
-    python scripts/trace_robofeeder.py kernels   # BLAS vs BLAS-free products; rerun under OPENBLAS_CORETYPE=...
+    python scripts/trace_robofeeder.py kernels   # BLAS vs portable_math products; rerun under OPENBLAS_CORETYPE=...
 
 The first line of a trace records the machine (CPU model and flags, the OpenGL renderer, numpy's and
 OpenCV's dispatched instruction sets, library versions); ``diff`` prints where two traces first differ, in
@@ -323,29 +323,10 @@ def diff(path_a: Path, path_b: Path) -> int:
     return status
 
 
-def _product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``a @ b`` (2-D by 2-D) without BLAS: elementwise products summed in a fixed order."""
-    return (a[:, :, None] * b[None, :, :]).sum(axis=1)
-
-
-def _solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``np.linalg.solve(a, b)`` (b a vector) without LAPACK: Gaussian elimination with partial pivoting."""
-    a, b = a.astype(float), b.astype(float)
-    n = len(a)
-    for k in range(n):
-        p = k + int(np.argmax(np.abs(a[k:, k])))
-        a[[k, p]], b[[k, p]] = a[[p, k]], b[[p, k]]
-        f = a[k + 1 :, k] / a[k, k]
-        a[k + 1 :] -= f[:, None] * a[k]
-        b[k + 1 :] -= f * b[k]
-    x = np.zeros(n)
-    for k in range(n - 1, -1, -1):
-        x[k] = (b[k] - (a[k, k + 1 :] * x[k + 1 :]).sum()) / a[k, k]
-    return x
-
-
 def kernels() -> None:
     """Hash the kinds of product the simulation path uses, through BLAS and without it (run under two settings)."""
+    from gym4real.robofeeder.portable_math import dot, norm, solve
+
     rng = np.random.default_rng(1)
     proj, points = rng.normal(size=(4, 4)), rng.normal(size=(300, 4))
     jac, err = rng.normal(size=(5, 6)), rng.normal(size=5)
@@ -358,15 +339,15 @@ def kernels() -> None:
         "norm (1-D)": np.array([np.linalg.norm(v) for v in points]),
         "jac.T @ solve": jac.T @ np.linalg.solve(damped, err),
     }
-    free = {
-        "points @ proj.T": _product(points, proj.T),
-        "image @ weights": (image * weights).sum(axis=-1),
-        "norm (1-D)": np.sqrt((points * points).sum(axis=-1)),
-        "jac.T @ solve": _product(jac.T, _solve(_product(jac, jac.T) + 0.01 * np.eye(5), err)[:, None])[:, 0],
+    free = {  # gym4real.robofeeder.portable_math, which the simulation path uses
+        "points @ proj.T": dot(points, proj.T),
+        "image @ weights": dot(image, weights),
+        "norm (1-D)": norm(points),
+        "jac.T @ solve": dot(jac.T, solve(dot(jac, jac.T) + 0.01 * np.eye(5), err)),
     }
     print(f"openblas core {openblas_core()}")
     for name in blas:
-        print(f"  {name:16s} BLAS {digest(blas[name])}  BLAS-free {digest(free[name])}")
+        print(f"  {name:16s} BLAS {digest(blas[name])}  portable_math {digest(free[name])}")
 
 
 def main() -> int:
@@ -380,7 +361,7 @@ def main() -> int:
     t.add_argument("--first", type=int, default=0, help="index of the first test episode")
     t.add_argument("--out", type=Path, required=True)
     t.add_argument("--opencv-unoptimized", action="store_true", help="cv2.setUseOptimized(False) first")
-    sub.add_parser("kernels", help="hash BLAS and BLAS-free products (compare under two dispatch settings)")
+    sub.add_parser("kernels", help="hash BLAS and portable_math products (compare under two dispatch settings)")
     d = sub.add_parser("diff", help="where two traces first differ")
     d.add_argument("a", type=Path)
     d.add_argument("b", type=Path)

@@ -6,17 +6,19 @@ The same scenes are rebuilt here through reset options (our env draws spawns fro
 the reference's seeded draws are replayed, not re-drawn). Tolerances, and the largest difference seen:
 
 * camera, pixel -> world: 1e-8 m (seen 1e-9 m; the reference builds its matrix from float32 GL cameras);
-* settled object pose after the 900 settle steps: 1e-4 (seen 4e-5: the 1e-9 m placement difference grows
-  through the contacts);
-* pick-pose joints 1-5: 0.05 rad (seen 0.032). The reference's IK leaves the yaw free, so its solution is one
-  point of a one-parameter family, chosen by the optimiser's path; rounding moves it along the family.
-  Joint 4 stays near 0 (the reference's wrist branch; before the fix our IK took the branch pi away);
+* settled object pose after the 900 settle steps: 1e-4 (seen 9.5e-5 since the products are portable_math's,
+  4e-5 before with OpenBLAS's SkylakeX kernels: the 1e-9 m placement difference grows through the contacts);
+* pick-pose joints 1-5: 0.05 rad (seen 0.0035; 0.033 before portable_math). The reference's IK leaves the yaw
+  free, so its solution is one point of a one-parameter family, chosen by the optimiser's path; rounding moves
+  it along the family. Joint 4 stays near 0 (the reference's wrist branch; before the fix our IK took the
+  branch pi away);
 * physics steps per pick: equal (874);
 * pick outcomes: equal for the grasps at the object's grasp site with the reference's angle; at least 46 of
-  the 54 grasps of the whole grid (seen 48). Grasps off the site are borderline: the reference agrees with
-  itself on 47 of 54 between ikpy 3.4.2 and 4.2.1, and such an outcome flips with a 1e-16 change of placement;
-* rewards of the fixed baseline: 1e-4 on the first step (seen 5e-6), 5e-3 on the second (seen 1.6e-3: the
-  first pick nudges the object by a few micrometres, differently);
+  the 54 grasps of the whole grid (seen 48; 49 before portable_math). Grasps off the site are borderline: the
+  reference agrees with itself on 47 of 54 between ikpy 3.4.2 and 4.2.1, and such an outcome flips with a
+  1e-16 change of placement;
+* rewards of the fixed baseline: 1e-4 on the first step (seen 6e-6), 5e-3 on the second (seen 1.1e-3; 3.3e-3
+  before portable_math: the first pick nudges the object by a few micrometres, differently);
 * trajectory: rewards 1e-5 (seen 6e-11), flags equal, mean observation 1e-5 (seen 7e-7), bright-pixel
   centroid 0.5 px (seen 0), object position 1e-4 m in the bin (seen 2.5e-6) and 5e-3 m held in the gripper
   (seen 1.7e-3).

@@ -16,6 +16,7 @@ import numpy as np
 
 from gym4real.core.errors import DataFileError, PolicyError
 from gym4real.core.install_hint import require
+from gym4real.robofeeder.portable_math import exp
 
 ACTION_NET_WEIGHT = "policy.action_net.weight"
 LOG_STD = "policy.log_std"
@@ -98,7 +99,7 @@ class OnnxPickingAgent(_OnnxPolicy):
         if self.mode == "sample":
             if rng is None:
                 raise PolicyError("a sampling agent needs the caller's `rng` (np.random.Generator)")
-            std = np.exp(np.asarray(self.log_std, dtype=np.float32))
+            std = exp(np.asarray(self.log_std, dtype=float)).astype(np.float32)
             action = action + std * rng.standard_normal(3).astype(np.float32)
         if self.clip:
             action = np.clip(action, -1.0, 1.0)
@@ -133,5 +134,5 @@ class OnnxPlanningAgent(_OnnxPolicy):
             return int(np.argmax(logits))
         if rng is None:
             raise PolicyError("a sampling agent needs the caller's `rng` (np.random.Generator)")
-        p = np.exp(logits - logits.max())
+        p = exp(logits - logits.max())
         return int(rng.choice(len(p), p=p / p.sum()))

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, ClassVar
@@ -14,6 +15,7 @@ from gymnasium.core import RenderFrame
 from gym4real.core.actions import box_action
 from gym4real.robofeeder.config import PickingConfig, RoboFeederConfig
 from gym4real.robofeeder.detection import Detection, Detector, crop, make_detector
+from gym4real.robofeeder.portable_math import dot, norm
 from gym4real.robofeeder.rendering import grayscale
 from gym4real.robofeeder.reward import angle_error_mod_pi, reference_angle_error, shaped
 from gym4real.robofeeder.simulator import PickOutcome, Simulator, tilt_of, yaw_of
@@ -132,8 +134,8 @@ class RoboFeederBaseEnv(gym.Env[np.ndarray, Any]):
         quat = self.sim.object_quats()[index]
         site = self.sim.site_positions()[index]
         psi = float(yaw_of(quat))
-        rot = np.array([[np.cos(psi), -np.sin(psi)], [np.sin(psi), np.cos(psi)]])
-        xy = site[:2] + rot @ ORACLE_OFFSET
+        rot = np.array([[math.cos(psi), -math.sin(psi)], [math.sin(psi), math.cos(psi)]])
+        xy = site[:2] + dot(rot, ORACLE_OFFSET)
         theta = self.sim.grasp_angle(xy, psi)
         ok = theta <= np.pi and float(tilt_of(quat)) < FLAT_TILT
         if not ok and theta > np.pi:
@@ -155,7 +157,7 @@ class RoboFeederBaseEnv(gym.Env[np.ndarray, Any]):
             return None
         centre_xy = self.sim.camera.pixel_to_world(np.asarray(centre, dtype=float))
         sites = self.sim.site_positions()
-        i = min(left, key=lambda k: float(np.linalg.norm(sites[k, :2] - centre_xy)))
+        i = min(left, key=lambda k: float(norm(sites[k, :2] - centre_xy)))
         xy, theta, _ = self.grasp_yaw_target(i)
         pixel = self.sim.camera.world_to_pixel(np.array([xy[0], xy[1], self.sim.camera.plane_height()]))
         return pixel, theta
@@ -163,7 +165,7 @@ class RoboFeederBaseEnv(gym.Env[np.ndarray, Any]):
     def nearest_object(self, xy: np.ndarray, sites: np.ndarray | None = None) -> int:
         """Index of the object whose site is nearest to world ``xy`` (picked ones included, as the reference)."""
         sites = self.sim.site_positions() if sites is None else sites
-        return int(np.argmin(np.linalg.norm(sites[:, :2] - np.asarray(xy)[None], axis=1)))
+        return int(np.argmin(norm(sites[:, :2] - np.asarray(xy)[None])))
 
 
 class RoboFeederPickingEnv(RoboFeederBaseEnv):
@@ -308,7 +310,7 @@ class RoboFeederPickingEnv(RoboFeederBaseEnv):
         scale = 1.0 / self.max_steps
         comps = dict.fromkeys(self.reward_component_names, 0.0)
         i = self.nearest_object(xy, outcome.initial_sites)
-        distance = float(np.linalg.norm(outcome.initial_sites[i, :2] - xy))
+        distance = float(norm(outcome.initial_sites[i, :2] - xy))
         if self.config.fix("grasp_angle"):
             angle_error = angle_error_mod_pi(outcome.gripper_yaw, float(yaw_of(outcome.initial_quats[i])))
         else:

@@ -14,11 +14,13 @@ along their own axes do not move the frames). Two solvers, one per tool conventi
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from gym4real.robofeeder._gl import mujoco
+from gym4real.robofeeder.portable_math import dot, norm, solve
 
 ARM_JOINTS = tuple(f"joint_{i}" for i in range(1, 7))
 DOWN = np.array([0.0, 0.0, -1.0])
@@ -34,7 +36,7 @@ URDF_UPPER = np.array(
 #: The end frame of the reference's chain (``tx2_60.urdf``, joint ``tool0_leftfinger``): the left finger's
 #: origin in the flange frame (m), and its z axis, tilted by the joint's roll of 0.0174533 rad.
 LEFT_FINGER_TOOL = np.array([0.0, -0.0073, 0.075])
-LEFT_FINGER_AXIS = np.array([0.0, -np.sin(0.0174533), np.cos(0.0174533)])
+LEFT_FINGER_AXIS = np.array([0.0, -math.sin(0.0174533), math.cos(0.0174533)])
 
 
 @dataclass(frozen=True)
@@ -75,7 +77,7 @@ class ArmKinematics:
         self.data.qpos[self.qadr] = q
         mujoco.mj_kinematics(self.model, self.data)
         rot = self.data.xmat[self.body].reshape(3, 3)
-        return self.data.xpos[self.body] + rot @ self.tool_offset, rot.copy()
+        return self.data.xpos[self.body] + dot(rot, self.tool_offset), rot.copy()
 
     def solve(
         self,
@@ -106,19 +108,19 @@ class ArmKinematics:
         err_p = err_r = np.inf
         for _ in range(iterations):
             point, rot = self.forward(q)
-            axis = rot @ self.tool_axis
+            axis = dot(rot, self.tool_axis)
             e_pos = target - point
             e_rot = np.cross(axis, DOWN)[:2]
-            if axis @ DOWN < 0.0:  # pointing up: the cross product vanishes, push towards any horizontal tilt
+            if dot(axis, DOWN) < 0.0:  # pointing up: the cross product vanishes, push towards any horizontal tilt
                 e_rot = e_rot + np.array([1.0, 0.0])
-            err_p, err_r = float(np.linalg.norm(e_pos)), float(np.linalg.norm(np.cross(axis, DOWN)))
-            if err_p < tol and err_r < 10 * tol and axis @ DOWN > 0:
+            err_p, err_r = float(norm(e_pos)), float(norm(np.cross(axis, DOWN)))
+            if err_p < tol and err_r < 10 * tol and dot(axis, DOWN) > 0:
                 break
             mujoco.mj_comPos(self.model, self.data)
             mujoco.mj_jac(self.model, self.data, self._jacp, self._jacr, point, self.body)
             jac = np.vstack([self._jacp[:, dofs], self._jacr[:2, dofs]])
             err = np.concatenate([e_pos, e_rot])
-            step = jac.T @ np.linalg.solve(jac @ jac.T + damping * np.eye(5), err)
+            step = dot(jac.T, solve(dot(jac, jac.T) + damping * np.eye(5), err))
             q[active] = np.clip(q[active] + step, self.lower[active], self.upper[active])
         ok = err_p < 10 * tol and err_r < 100 * tol
         return IKResult(q=q, position_error=err_p, axis_error=err_r, ok=bool(ok))
@@ -154,11 +156,11 @@ class ArmKinematics:
 
         def residuals(q: np.ndarray) -> np.ndarray:
             point, rot = self.forward(q)
-            return np.concatenate([point - target, rot @ self.tool_axis - DOWN])
+            return np.concatenate([point - target, dot(rot, self.tool_axis) - DOWN])
 
         seed = np.clip(np.asarray(seed, dtype=float), URDF_LOWER, URDF_UPPER)
         q = least_squares(residuals, seed, bounds=(URDF_LOWER, URDF_UPPER)).x
         point, rot = self.forward(q)
-        err_p = float(np.linalg.norm(point - target))
-        err_r = float(np.linalg.norm(np.cross(rot @ self.tool_axis, DOWN)))
+        err_p = float(norm(point - target))
+        err_r = float(norm(np.cross(dot(rot, self.tool_axis), DOWN)))
         return IKResult(q=q, position_error=err_p, axis_error=err_r, ok=bool(err_p < 10 * tol and err_r < 100 * tol))

@@ -15,6 +15,7 @@ from gym4real.core.errors import PolicyError
 from gym4real.robofeeder._plugin import PICKING_AGENT
 from gym4real.robofeeder.config import PlanningConfig
 from gym4real.robofeeder.env import RoboFeederBaseEnv
+from gym4real.robofeeder.portable_math import norm
 from gym4real.robofeeder.reward import reference_orientation_ok
 
 PickingPolicy = Callable[[np.ndarray], np.ndarray]
@@ -235,7 +236,7 @@ class RoboFeederPlanningEnv(RoboFeederBaseEnv):
         for slot in np.flatnonzero(self._filled):
             centre_xy = self.sim.camera.pixel_to_world(self._centres[slot])
             for i in left:
-                d = float(np.linalg.norm(sites[i, :2] - centre_xy))
+                d = float(norm(sites[i, :2] - centre_xy))
                 if d < best_d:
                     best, best_d = int(slot) + 1, d
         return best

@@ -25,6 +25,7 @@ import numpy as np
 
 from gym4real.robofeeder import _gl
 from gym4real.robofeeder._gl import mujoco
+from gym4real.robofeeder.portable_math import dot
 
 
 class RenderingError(RuntimeError):
@@ -161,7 +162,7 @@ class LazyRenderer:
 def grayscale(rgb: np.ndarray) -> np.ndarray:
     """The reference's grayscale: (R, G, B) . (0.2989, 0.5870, 0.1140) / 255, float32 in [0, 1]."""
     weights = np.array([0.2989, 0.5870, 0.1140], dtype=np.float32)
-    gray = rgb.astype(np.float32) @ weights / np.float32(255.0)
+    gray = dot(rgb.astype(np.float32), weights) / np.float32(255.0)
     return np.clip(gray, 0.0, 1.0, out=gray)
 
 

@@ -8,9 +8,12 @@ compares the true object yaw with the planned gripper yaw, modulo pi.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from gym4real.robofeeder.config import RewardSection
+from gym4real.robofeeder.portable_math import norm
 
 REFERENCE_OFFSET = 2.35
 #: Above this error the reference folds the angle error: delta = pi - delta.
@@ -19,13 +22,13 @@ REFERENCE_FOLD = 2.6
 
 def euler_xyz(quat_xyzw: np.ndarray) -> np.ndarray:
     """Extrinsic 'xyz' Euler angles of a scalar-last quaternion (SciPy's ``as_euler("xyz")``)."""
-    x, y, z, w = np.asarray(quat_xyzw, dtype=float) / np.linalg.norm(quat_xyzw)
+    x, y, z, w = np.asarray(quat_xyzw, dtype=float) / norm(quat_xyzw)
     r20 = 2.0 * (x * z - w * y)
     r21 = 2.0 * (y * z + w * x)
     r22 = 1.0 - 2.0 * (x * x + y * y)
     r10 = 2.0 * (x * y + w * z)
     r00 = 1.0 - 2.0 * (y * y + z * z)
-    return np.array([np.arctan2(r21, r22), -np.arcsin(np.clip(r20, -1.0, 1.0)), np.arctan2(r10, r00)])
+    return np.array([math.atan2(r21, r22), -math.asin(min(max(r20, -1.0), 1.0)), math.atan2(r10, r00)])
 
 
 def _wrap_once(angle: float) -> float:
@@ -66,7 +69,7 @@ def shaped(distance: float, angle_error: float, reward: RewardSection) -> tuple[
     ``-1 + lambda exp(-alpha_d d^2) + (1 - lambda) exp(-alpha_theta dtheta^2)`` with
     ``alpha = ln 2 / delta^2`` (each term is one half at its threshold).
     """
-    alpha_d = np.log(2.0) / reward.delta_d**2
-    alpha_t = np.log(2.0) / reward.delta_theta**2
+    alpha_d = math.log(2.0) / reward.delta_d**2
+    alpha_t = math.log(2.0) / reward.delta_theta**2
     lam = reward.distance_weight
-    return (-1.0, float(lam * np.exp(-alpha_d * distance**2)), float((1.0 - lam) * np.exp(-alpha_t * angle_error**2)))
+    return (-1.0, lam * math.exp(-alpha_d * distance**2), (1.0 - lam) * math.exp(-alpha_t * angle_error**2))

@@ -8,6 +8,7 @@ explicit tick loop of :meth:`Simulator.pick`, with the reference's tick timings)
 from __future__ import annotations
 
 import functools
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -19,6 +20,7 @@ from gym4real.robofeeder._gl import mujoco
 from gym4real.robofeeder.camera import CameraModel
 from gym4real.robofeeder.config import RoboFeederConfig
 from gym4real.robofeeder.kinematics import LEFT_FINGER_AXIS, LEFT_FINGER_TOOL, ArmKinematics, IKResult
+from gym4real.robofeeder.portable_math import arccos, atan2, dot, norm
 from gym4real.robofeeder.rendering import LazyRenderer
 from gym4real.robofeeder.scene import build_model
 
@@ -82,7 +84,7 @@ class PickOutcome:
 def yaw_of(quat: np.ndarray) -> np.ndarray:
     """World yaw (rad) of the body x axis for quaternion(s) (w, x, y, z); shape (..., 4) -> (...)."""
     w, x, y, z = np.moveaxis(np.asarray(quat, dtype=float), -1, 0)
-    return np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    return atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
 
 def tilt_of(quat: np.ndarray) -> np.ndarray:
@@ -90,7 +92,7 @@ def tilt_of(quat: np.ndarray) -> np.ndarray:
     w, x, y, z = np.moveaxis(np.asarray(quat, dtype=float), -1, 0)
     norm2 = w * w + x * x + y * y + z * z
     zz = 1.0 - 2.0 * (x * x + y * y) / np.where(norm2 > 0, norm2, 1.0)
-    return np.arccos(np.clip(zz, -1.0, 1.0))
+    return arccos(np.clip(zz, -1.0, 1.0))
 
 
 def footprint_centre(model: mujoco.MjModel, resolution: float = 1e-4) -> np.ndarray:
@@ -105,7 +107,7 @@ def footprint_centre(model: mujoco.MjModel, resolution: float = 1e-4) -> np.ndar
     faces = model.mesh_face[model.mesh_faceadr[mesh] : model.mesh_faceadr[mesh] + model.mesh_facenum[mesh]]
     rot = np.zeros(9)
     mujoco.mju_quat2Mat(rot, model.geom_quat[g])
-    body = verts @ rot.reshape(3, 3).T + model.geom_pos[g]
+    body = dot(verts, rot.reshape(3, 3).T) + model.geom_pos[g]
     half = float(np.abs(body[:, :2]).max()) + 1e-3
     cells = int(np.ceil(2 * half / resolution))
     mask = np.zeros((cells, cells), np.uint8)
@@ -124,11 +126,11 @@ def _rest_pose(n_objects: int, data_dir: str | None) -> tuple[float, tuple[float
         data.qpos[7 * i : 7 * i + 7] = [-0.30 - 0.05 * i, 0.40 - 0.05 * i, 0.21, 1.0, 0.0, 0.0, 0.0]
     mujoco.mj_step(model, data, nstep=1200)
     q = data.qpos[3:7].copy()
-    yaw = yaw_of(q)
-    half = np.array([np.cos(-yaw / 2), 0.0, 0.0, np.sin(-yaw / 2)])
+    yaw = float(yaw_of(q))
+    half = np.array([math.cos(-yaw / 2), 0.0, 0.0, math.sin(-yaw / 2)])
     tilt = np.zeros(4)
     mujoco.mju_mulQuat(tilt, half, q)
-    return float(data.qpos[2]), tuple(float(v) for v in tilt / np.linalg.norm(tilt))
+    return float(data.qpos[2]), tuple(float(v) for v in tilt / norm(tilt))
 
 
 class Simulator:
@@ -188,11 +190,11 @@ class Simulator:
             for y in s.y_range:
                 pixel = (np.array([x, y]) + 1.0) * (self.config.image_size / 2.0)
                 xy = self.camera.pixel_to_world(pixel)
-                site = xy * (1.0 + SITE_REACH_MARGIN / float(np.linalg.norm(xy)))
+                site = xy * (1.0 + SITE_REACH_MARGIN / float(norm(xy)))
                 if not self.arm_reaches(site):
                     msg = (
                         f"the spawn area reaches image point {pixel.round(1).tolist()} (normalised ({x}, {y})), "
-                        f"{np.linalg.norm(xy):.3f} m from the robot's axis, where the arm cannot pick with the tool "
+                        f"{float(norm(xy)):.3f} m from the robot's axis, where the arm cannot pick with the tool "
                         "pointing down (its reach ends near 0.59 m, image rows v > ~195-225 px): narrow "
                         "`spawn.x_range` / `spawn.y_range` (the default (-0.8, 0.8) x (-0.75, 0.1) is within reach), "
                         "or set `fixes.unfeasible_targets: false` to spawn there anyway"
@@ -230,7 +232,7 @@ class Simulator:
         local = self._footprint
         out = []
         for b in self.object_bodies:
-            out.append(self.data.xpos[b] + self.data.xmat[b].reshape(3, 3) @ local)
+            out.append(self.data.xpos[b] + dot(self.data.xmat[b].reshape(3, 3), local))
         return np.array(out)
 
     # ------------------------------------------------------------------ reset
@@ -268,7 +270,7 @@ class Simulator:
             xy = np.column_stack([rng.uniform(*s.x_range, self.n), rng.uniform(*s.y_range, self.n)])
             if self.n == 1:
                 return xy
-            gaps = np.linalg.norm(xy[:, None] - xy[None], axis=-1)[np.triu_indices(self.n, 1)]
+            gaps = norm(xy[:, None] - xy[None])[np.triu_indices(self.n, 1)]
             if (gaps >= s.min_distance).all():
                 return xy
         msg = f"cannot place {self.n} objects `spawn.min_distance` apart in the spawn area; lower `n_objects`"
@@ -300,7 +302,7 @@ class Simulator:
             rest_z, tilt = _rest_pose(self.n, cfg.data_dir) if at_rest else (cfg.spawn.height, (1.0, 0, 0, 0))
             for i, adr in enumerate(self.object_qadr):
                 if yaws is not None:
-                    quat = np.array([np.cos(yaws[i] / 2), 0.0, 0.0, np.sin(yaws[i] / 2)])
+                    quat = np.array([math.cos(yaws[i] / 2), 0.0, 0.0, math.sin(yaws[i] / 2)])
                 else:
                     quat = self._draw_quat(rng, world[i] if graspable_only else None)
                 if at_rest:
@@ -320,8 +322,8 @@ class Simulator:
         for _ in range(200):
             v = rng.choice(grid, 4)
             quat = np.array([v[0], 0.0, 0.0, v[1]]) if self.config.spawn.upright else v
-            norm = np.linalg.norm(quat)
-            quat = quat / norm if norm > 1e-9 else np.array([1.0, 0.0, 0.0, 0.0])
+            length = float(norm(quat))
+            quat = quat / length if length > 1e-9 else np.array([1.0, 0.0, 0.0, 0.0])
             if graspable_at is None:
                 return quat
             theta = self.grasp_angle(graspable_at, float(yaw_of(quat)))
@@ -380,7 +382,7 @@ class Simulator:
     def _gripper_yaw(self, pick_pose: IKResult, theta: float) -> float:
         """World yaw (rad) of the flange x axis at the pick pose with joint 6 at ``theta``."""
         _, rot = self.kin.forward(np.concatenate([pick_pose.q[:5], [theta]]))
-        return float(np.arctan2(rot[1, 0], rot[0, 0]))
+        return math.atan2(rot[1, 0], rot[0, 0])
 
     def grasp_angle(self, xy: np.ndarray, yaw: float) -> float:
         """Joint-6 angle (rad, in [0, 2 pi)) aligning the gripper x axis with ``yaw`` at a pick at world ``xy``.
@@ -395,7 +397,7 @@ class Simulator:
             start = self.home_q if self.config.fix("centred_tool") else np.zeros(6)
             _, wp1 = self._pick_poses(pick, start, 0.0)
             _, rot = self.kin.forward(np.concatenate([wp1.q[:5], [0.0]]))
-            c = float(np.arctan2(rot[1, 0], rot[0, 0]))
+            c = math.atan2(rot[1, 0], rot[0, 0])
             if len(self._yaw_cache) > 4096:
                 self._yaw_cache.clear()
             self._yaw_cache[key] = c
@@ -490,7 +492,7 @@ class Simulator:
         final = self._run_controller(plan, theta, on_tick)
         goal = np.asarray(cfg.success_point)
         for i in range(self.n):
-            if not self.picked[i] and np.linalg.norm(final[i] - goal) < cfg.success_radius:
+            if not self.picked[i] and norm(final[i] - goal) < cfg.success_radius:
                 self.picked[i] = True
                 outcome.success, outcome.picked = True, i
                 break
