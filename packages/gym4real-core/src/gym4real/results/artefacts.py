@@ -4,7 +4,8 @@
 the output folder of ``gym4real reproduce``) publishes, besides whether its sections are current:
 
 - ``manifest.json`` must be readable; every file it lists (each section's data, statistics, figures,
-  ``report.json``, ``models.json`` and models; the page's ``index.md``, ``claims.json`` and summary figure)
+  ``report.json``, ``models.json`` and models; the page's ``index.md``, ``claims.json``, summary figure and,
+  with two PPO trainers' sections of an env, ``trainers.json``)
   must be there with its SHA-256;
 - every section it lists must be there, and no other: a section folder, or a file inside one, that it does
   not list is unknown; so is, in a page folder, any other file or folder beside the page (an output folder
@@ -17,9 +18,8 @@ Each problem names the file and its section. A folder with any of them is *damag
 
 from __future__ import annotations
 
-import re
-
 import json
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -105,6 +105,7 @@ class Verification:
     problems: dict[str, list[str]] = field(default_factory=dict)
 
     def add(self, section: str, problem: str) -> None:
+        """Record ``problem`` under ``section``."""
         self.problems.setdefault(section, []).append(problem)
 
     def lines(self) -> list[str]:
