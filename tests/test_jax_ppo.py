@@ -798,6 +798,9 @@ def test_reproduce_with_the_jax_trainer_labels_its_section_runs_and_models(tmp_p
     report = json.loads((section / "report.json").read_text())
     assert report["presets"] == {"ppo-jax": "smoke"} and report["command"].endswith("--trainer jax")
     assert report["fingerprints"]["trainer"]["trainer"] == "jax"
+    claims = json.loads((section / "claims.json").read_text())  # decided on the section's own agent
+    assert {(c["policy"], c["trainer"]) for c in claims} == {("ppo-jax", "jax")}
+    assert "not checked" not in {c["verdict"] for c in claims}
     from gym4real.results.currency import check
     from gym4real.results.results_page import write_page
 
