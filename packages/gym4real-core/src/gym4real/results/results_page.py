@@ -327,7 +327,7 @@ def _trainer_title(comparisons: list[dict[str, Any]]) -> str:
 
 
 def _trainer_difference(c: dict[str, Any], scale: float) -> str:
-    """A trainer comparison's difference with its interval: ``-648 [-1,358, -56]``."""
+    """A trainer comparison's difference with its interval: ``-648.1 [-1,371, -39.68]``."""
     return f"{_fmt(c['estimate'], scale)} {_ci(c['low'], c['high'], scale)}"
 
 
