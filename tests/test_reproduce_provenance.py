@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from gym4real.bench.versions import NOT_RECORDED
 from gym4real.results import fingerprints
 from gym4real.results.provenance import RUNS_TEXT
 from gym4real.results.published_models import sha256_of
@@ -288,3 +289,17 @@ def test_the_committed_sections_verification_sentences_read_as_words() -> None:
         for part, sentence in json.loads(report.read_text()).get("fingerprints_verified", {}).items():
             assert "-dirty" not in sentence, (report.parent.name, part)
             assert " of the 0 data files" not in sentence, (report.parent.name, part)
+
+
+def test_a_section_names_the_commits_that_trained_its_runs_apart_from_its_test_phase() -> None:
+    """A section tested again at a later commit (its runs reused) says where its runs were trained, not the test's."""
+    from gym4real.results.section_provenance import code_versions
+
+    runs = pd.DataFrame(
+        {"algo": ["ppo", "ppo", "dqn"], "seed": [0, 1, 0], "trained_by": ["aaa1111", "bbb2222", "aaa1111"]}
+    )
+    assert code_versions(runs, "ccc3333") == "Trained at code versions `aaa1111`, `bbb2222` (test phase at `ccc3333`)"
+    assert code_versions(runs.iloc[[0, 2]], "aaa1111") == "Trained at code version `aaa1111`"
+    assert code_versions(None, "ccc3333") == "Trained at code version `ccc3333`"
+    unknown = pd.DataFrame({"algo": ["ppo"], "seed": [0], "trained_by": [NOT_RECORDED]})
+    assert code_versions(unknown, "ccc3333") == "Trained at code version `ccc3333`"

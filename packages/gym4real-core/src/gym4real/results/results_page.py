@@ -33,7 +33,13 @@ from gym4real.results.headroom_page import headroom_table
 from gym4real.results.page_manifest import files_sha256, imported_by_all, section_record
 from gym4real.results.provenance import RUNS_TEXT
 from gym4real.results.published_models import FOLDER as MODELS
-from gym4real.results.section_provenance import currency_line, machine_caveat, models_lines, run_provenance
+from gym4real.results.section_provenance import (
+    code_versions,
+    currency_line,
+    machine_caveat,
+    models_lines,
+    run_provenance,
+)
 from gym4real.results.stand_ins import budget_mark, difference_lines
 
 #: The files of a results folder that the page folder holds.
@@ -405,7 +411,7 @@ def _section(
         *difference_lines(report, section.episodes),
         f"Command (reuses the finished runs of its output folder): `{report['command']}`",
         "",
-        f"Trained at code version `{section.version}`; training presets "
+        f"{code_versions(runs, section.version)}; training presets "
         f"{', '.join(f'`{a}/{p}`' for a, p in report['presets'].items())}; seeds "
         f"{', '.join(str(s) for s in report['seeds'])}; training wall time {_duration(train_s)} (sum over runs), "
         f"test {_duration(report['test_wall_time_s'])}. Raw data: "
