@@ -7,10 +7,11 @@ parameters and observation statistics recorded in ``tests/golden/jax_trainer_v{N
 - ``python scripts/jax_trainer_golden.py --record`` trains the run here and writes the golden file of the
   installed ``JAX_TRAINER_VERSION``.
 - ``python scripts/jax_trainer_golden.py`` (no option) measures: the run in a fresh process once as this CPU
-  runs it, then under each of :data:`VARIANTS` (XLA's code generation limited to older instruction sets,
-  numba compiling for a generic or older processor, OpenBLAS and NumPy on older kernels), and prints the
-  largest absolute difference of each from the first (the CPU spread) and of each change of the training in
-  :data:`CHANGES` (what the guard must see), and each run's difference from the golden file.
+  runs it, then under each of :data:`VARIANTS` (XLA's code generation limited to older instruction sets, XLA
+  on two threads, numba compiling for a generic or older processor, OpenBLAS and NumPy on older kernels,
+  XLA's YNNPACK kernels), and prints the largest absolute difference of each from the first (the CPU spread)
+  and of each change of the training in :data:`CHANGES` (what the guard must see), and each run's difference
+  from the golden file. ``--variants NAME ...`` and ``--changes NAME ...`` measure a subset.
 """
 
 from __future__ import annotations
@@ -33,7 +34,9 @@ GOLDEN_DIR = ROOT / "tests" / "golden"
 ENV_ID = "gym4real/microgrid-v0"
 SEED = 7
 #: The guard run: microgrid's smoke settings made smaller (two copies, four iterations of 2 x 64 steps, two
-#: epochs of four minibatches), one evaluation at the end, so that the model file holds the final policy.
+#: epochs of four minibatches), one evaluation at the end, so that the model file holds the final policy. The
+#: learning rate is ten times the paper's so that the clipped surrogate and the gradient clipping act (at
+#: 3e-4 neither a clip range of 0.19 nor of 0.1 changed a bit of the run: no ratio left [0.9, 1.1]).
 RUN: dict[str, Any] = {
     "algo": "ppo",
     "total_timesteps": 512,
@@ -44,7 +47,7 @@ RUN: dict[str, Any] = {
     "policy": "MlpPolicy",
     "policy_kwargs": {"net_arch": [16, 16], "log_std_init": -1.0},
     "hyperparams": {
-        "learning_rate": {"schedule": "cosine", "initial": 3.0e-4, "final": 0.0},
+        "learning_rate": {"schedule": "cosine", "initial": 3.0e-3, "final": 0.0},
         "n_steps": 64,
         "batch_size": 32,
         "n_epochs": 2,
@@ -60,11 +63,10 @@ RUN: dict[str, Any] = {
 #: Changes of the training the guard must see (hyperparameter overrides).
 CHANGES: dict[str, dict[str, Any]] = {
     "gamma 0.99 -> 0.995": {"gamma": 0.995},
-    "gamma 0.99 -> 0.991": {"gamma": 0.991},
     "n_epochs 2 -> 3": {"n_epochs": 3},
-    "clip_range 0.2 -> 0.1": {"clip_range": 0.1},
     "clip_range 0.2 -> 0.19": {"clip_range": 0.19},
-    "learning rate 3e-4 -> 3.03e-4": {"learning_rate": {"schedule": "cosine", "initial": 3.03e-4, "final": 0.0}},
+    "max_grad_norm 0.5 -> 0.45": {"max_grad_norm": 0.45},
+    "learning rate 3e-3 -> 3.03e-3": {"learning_rate": {"schedule": "cosine", "initial": 3.03e-3, "final": 0.0}},
 }
 #: Environment settings that make this CPU run other code paths, each applied to a fresh process.
 VARIANTS: dict[str, dict[str, str]] = {
@@ -72,6 +74,7 @@ VARIANTS: dict[str, dict[str, str]] = {
     "XLA max ISA AVX2": {"XLA_FLAGS": "--xla_cpu_max_isa=AVX2"},
     "XLA max ISA AVX": {"XLA_FLAGS": "--xla_cpu_max_isa=AVX"},
     "XLA max ISA SSE4_2": {"XLA_FLAGS": "--xla_cpu_max_isa=SSE4_2"},
+    "XLA on two threads": {"XLA_FLAGS": "--xla_cpu_multi_thread_eigen=true intra_op_parallelism_threads=2"},
     "numba generic CPU": {"NUMBA_CPU_NAME": "generic"},
     "numba haswell (AVX2)": {"NUMBA_CPU_NAME": "haswell"},
     "numba nehalem (SSE4.2)": {"NUMBA_CPU_NAME": "nehalem"},
@@ -137,8 +140,8 @@ def measure(variants: Sequence[str], changes: Sequence[str]) -> None:
     recorded = dict(np.load(path)) if path.exists() else None
     with tempfile.TemporaryDirectory() as tmp:
         base = _in_process({}, Path(tmp) / "base", {})
-        rows = [("this CPU (again)", {}, {})] + [(v, VARIANTS[v], {}) for v in variants]
-        rows += [(c, {}, CHANGES[c]) for c in changes]
+        rows: list[tuple[str, dict[str, str], dict[str, Any]]] = [("this CPU (again)", {}, {})]
+        rows += [(v, VARIANTS[v], {}) for v in variants] + [(c, {}, CHANGES[c]) for c in changes]
         if recorded is not None:
             print(f"{'this CPU':40s} golden {largest_difference(base, recorded):.3g}")
         spread = 0.0
@@ -153,6 +156,7 @@ def measure(variants: Sequence[str], changes: Sequence[str]) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Record the golden file (``--record``) or measure the spread and the changes (see the module docstring)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--record", action="store_true", help="write the golden file of this checkout's training")
     parser.add_argument("--variants", nargs="*", default=list(VARIANTS), choices=list(VARIANTS), metavar="NAME")
