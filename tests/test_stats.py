@@ -75,16 +75,21 @@ def test_a_difference_takes_the_same_episodes_for_both_policies() -> None:
     _same_distribution(_frequencies(sampled), exact)
 
 
-def test_the_interval_bounds_are_the_exact_distributions_quantiles() -> None:
-    scores = np.array([[1.0, 2.0, 4.0], [8.0, 16.0, 32.0]])
-    exact = _exact([scores], [True], _iqm)
-    _, low, high = stats.iqm_ci(scores, trained=True)
+def _assert_ends_are_quantiles(exact: dict[float, float], low: float, high: float) -> None:
+    """``low`` and ``high`` are the 2.5 % and 97.5 % quantiles of the exact distribution (to 1 % of mass)."""
     below = sum(p for v, p in exact.items() if v < low - 1e-9)
     at_or_below = sum(p for v, p in exact.items() if v <= low + 1e-9)
     assert below <= 0.025 + 0.01 and at_or_below >= 0.025 - 0.01
     above = sum(p for v, p in exact.items() if v > high + 1e-9)
     at_or_above = sum(p for v, p in exact.items() if v >= high - 1e-9)
     assert above <= 0.025 + 0.01 and at_or_above >= 0.025 - 0.01
+
+
+def test_the_interval_bounds_are_the_exact_distributions_quantiles() -> None:
+    scores = np.array([[1.0, 2.0, 4.0], [8.0, 16.0, 32.0]])
+    exact = _exact([scores], [True], _iqm)
+    _, low, high = stats.iqm_ci(scores, trained=True)
+    _assert_ends_are_quantiles(exact, low, high)
 
 
 def test_two_trained_policies_draw_their_seeds_on_their_own_and_the_episodes_together() -> None:
@@ -109,12 +114,7 @@ def test_the_difference_of_two_trained_policies_has_the_exact_distributions_quan
     exact = _exact([a, b], [True, True], lambda x, y: _iqm(x) - _iqm(y))
     estimate, low, high = stats.difference_ci(a, b, True, True, "iqm", seed=0, level=0.95)
     assert estimate == pytest.approx(_iqm(a) - _iqm(b))
-    below = sum(p for v, p in exact.items() if v < low - 1e-9)
-    at_or_below = sum(p for v, p in exact.items() if v <= low + 1e-9)
-    assert below <= 0.025 + 0.01 and at_or_below >= 0.025 - 0.01
-    above = sum(p for v, p in exact.items() if v > high + 1e-9)
-    at_or_above = sum(p for v, p in exact.items() if v >= high - 1e-9)
-    assert above <= 0.025 + 0.01 and at_or_above >= 0.025 - 0.01
+    _assert_ends_are_quantiles(exact, low, high)
 
 
 def test_the_interval_is_reproducible_under_its_seed() -> None:
