@@ -303,3 +303,4 @@ def test_a_section_names_the_commits_that_trained_its_runs_apart_from_its_test_p
     assert code_versions(None, "ccc3333") == "Trained at code version `ccc3333`"
     unknown = pd.DataFrame({"algo": ["ppo"], "seed": [0], "trained_by": [NOT_RECORDED]})
     assert code_versions(unknown, "ccc3333") == "Trained at code version `ccc3333`"
+    assert code_versions(runs.drop(columns="trained_by"), "ccc3333") == "Trained at code version `ccc3333`"

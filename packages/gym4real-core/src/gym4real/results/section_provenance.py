@@ -70,10 +70,10 @@ def code_versions(runs: pd.DataFrame | None, tested: str) -> str:
     """Where a section's runs were trained (``runs.csv``'s ``trained_by``) and, when elsewhere, its test phase.
 
     A section tested again at a later commit reuses its runs: the commit of ``report.json`` is the test's.
+    Runs recorded before ``runs.csv`` had ``trained_by`` are taken to be the test's commit, as the page said.
     """
-    trained = (
-        sorted({v for v in runs["trained_by"] if isinstance(v, str) and v != NOT_RECORDED}) if runs is not None else []
-    )
+    recorded = runs["trained_by"] if runs is not None and "trained_by" in runs else []
+    trained = sorted({v for v in recorded if isinstance(v, str) and v != NOT_RECORDED})
     if not trained or trained == [tested]:
         return f"Trained at code version `{tested}`"
     names = ", ".join(f"`{v}`" for v in trained)
