@@ -271,10 +271,13 @@ def test_an_interrupted_tabular_run_resumes_to_the_same_table(tmp_path: Path) ->
         train("gym4real/elevator-v0", "qlearning", preset, seed=4, out=tmp_path / "cut")
 
 
-def test_a_resumed_run_keeps_the_commit_and_cpu_that_started_it(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_resumed_run_keeps_the_commit_and_cpu_that_started_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """Issue 47: a run started at X on machine A and resumed at Y on B said "trained by Y"; X and A were lost."""
     import importlib
 
+    from gym4real.results.page_manifest import machines
     from gym4real.results.provenance import runs_table
     from gym4real.results.section_provenance import code_versions, run_provenance
 
@@ -304,6 +307,8 @@ def test_a_resumed_run_keeps_the_commit_and_cpu_that_started_it(tmp_path: Path, 
     trained, resumed = run_provenance(runs, "qlearning", 3)
     assert trained == "`aaa1111`" and resumed.endswith("episodes by `bbb2222`")
     assert code_versions(runs, "ccc3333") == "Trained at code version `aaa1111` (test phase at `ccc3333`)"
+    runs.to_csv(tmp_path / "runs.csv", index=False)
+    assert machines(tmp_path, {})["trained_on"] == {"CPU A": 1, "CPU B": 1}
     # a run never interrupted started and finished at the same commit, on the same machine
     whole = train("gym4real/elevator-v0", "qlearning", preset, seed=3, out=tmp_path / "whole")
     assert json.loads((tmp_path / "whole" / "run.json").read_text())["started"] == {
