@@ -279,6 +279,7 @@ def test_a_resumed_run_keeps_the_commit_and_cpu_that_started_it(
 
     from gym4real.results.page_manifest import machines
     from gym4real.results.provenance import runs_table
+    from gym4real.results.published_models import publish_models
     from gym4real.results.section_provenance import code_versions, run_provenance
 
     trainer = importlib.import_module("gym4real.rl.train")
@@ -309,6 +310,7 @@ def test_a_resumed_run_keeps_the_commit_and_cpu_that_started_it(
     assert code_versions(runs, "ccc3333") == "Trained at code version `aaa1111` (test phase at `ccc3333`)"
     runs.to_csv(tmp_path / "runs.csv", index=False)
     assert machines(tmp_path, {})["trained_on"] == {"CPU A": 1, "CPU B": 1}
+    assert publish_models([run], tmp_path / "section", "quick")[0]["trained_by"] == "aaa1111"  # models.json
     # a run never interrupted started and finished at the same commit, on the same machine
     whole = train("gym4real/elevator-v0", "qlearning", preset, seed=3, out=tmp_path / "whole")
     assert json.loads((tmp_path / "whole" / "run.json").read_text())["started"] == {
@@ -329,6 +331,9 @@ def test_a_run_recorded_before_its_start_was_names_the_commit_that_finished_it(t
     record["versions"]["gym4real (git)"] = "ddd4444"
     (tmp_path / "run.json").write_text(json.dumps(record))
     assert runs_table([run])[["trained_by", "started_on"]].values.tolist() == [["ddd4444", NOT_RECORDED]]
+    # a start by code without a version (no checkout, no GYM4REAL_CODE_VERSION) is not a commit either
+    (tmp_path / "run.json").write_text(json.dumps({**record, "started": {"code_version": "unknown", "cpu": "CPU A"}}))
+    assert runs_table([run])[["trained_by", "started_on"]].values.tolist() == [[NOT_RECORDED, "CPU A"]]
 
 
 TRADING_DQN = """
