@@ -178,7 +178,7 @@ def test_runs_and_test_phase_record_the_cpu_model_and_the_manifest_the_machines(
     )
     assert run["cpu"] == cpu
     section = elevator_quick / "elevator-v0-quick"
-    assert pd.read_csv(section / "runs.csv")["cpu"].tolist() == [cpu, cpu]
+    assert pd.read_csv(section / "runs.csv")[["started_on", "cpu"]].values.tolist() == [[cpu, cpu], [cpu, cpu]]
     assert json.loads((section / "report.json").read_text())["cpu"] == cpu
     manifest = json.loads((elevator_quick / "manifest.json").read_text())
     assert manifest["provenance"]["elevator-v0-quick"]["machines"] == {"trained_on": {cpu: 2}, "tested_on": cpu}

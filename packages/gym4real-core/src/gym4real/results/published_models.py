@@ -30,7 +30,7 @@ from gym4real.bench.published import FOLDER, LISTING
 from gym4real.bench.seeds import listed_seeds_flag
 from gym4real.core.registry import slug
 from gym4real.rl.tabular import QTABLE, save_greedy_table
-from gym4real.rl.train import TrainingRun
+from gym4real.rl.train import TrainingRun, started_by
 
 #: The largest model (all its files) published beside the results.
 MAX_BYTES = 5 * 1024 * 1024
@@ -89,7 +89,7 @@ def publish_models(runs: list[TrainingRun], section: Path, budget: str) -> list[
             **({} if run.trainer == "sb3" else {"trainer": run.trainer}),
             "seed": run.seed,
             "preset": run.preset,
-            "trained_by": record.get("versions", {}).get("gym4real (git)", "not recorded"),
+            "trained_by": started_by(record),
             "files": [{"name": p.name, "sha256": sha256_of(p), "bytes": p.stat().st_size} for p in files],
             "bytes": size,
             "published": published,
