@@ -161,7 +161,7 @@ def test_the_fingerprint_sentences_name_no_empty_file_count_and_no_dirty_suffix(
 
 SECTIONS = sorted(p.name.removesuffix("-paper") for p in RESULTS.glob("*-paper") if (p / "summary.csv").is_file())
 ROW = re.compile(rf"^\| `(\w+)`([^|]*) \| ([^|]+) \| ({NUMBER}) \[({NUMBER}), ({NUMBER})\] \| ({NUMBER}) \|$", re.M)
-DIFFERENCE = re.compile(rf"(IQM|spread|success rate) (\w+) - (\w+): ({NUMBER}) \[({NUMBER}), ({NUMBER})\]")
+DIFFERENCE = re.compile(rf"(IQM|spread|success rate) ([\w-]+) - ([\w-]+): ({NUMBER}) \[({NUMBER}), ({NUMBER})\]")
 
 
 @pytest.fixture(scope="module")
