@@ -536,8 +536,7 @@ def test_the_workspace_heatmap_counts_each_episodes_success_in_its_cell(tmp_path
 def test_the_published_claims_are_decided_from_the_published_episodes_under_the_current_rules() -> None:
     """Every verdict of ``docs/results`` re-decides from its ``episodes.csv``; the ones issues 32 and 38 changed."""
     from gym4real.results.analysis import check_claims
-    from gym4real.results.artefacts import trainer_of
-    from gym4real.results.results_page import section_name
+    from gym4real.results.artefacts import section_name, trainer_of
 
     page = ROOT / "docs" / "results"
     published = json.loads((page / "claims.json").read_text())
@@ -547,7 +546,10 @@ def test_the_published_claims_are_decided_from_the_published_episodes_under_the_
         fresh = check_claims(report["env_id"], report["budget"], episodes, trainer_of(folder.name))
         assert fresh == json.loads((folder / "claims.json").read_text()), folder.name
         shown = [c for c in fresh if trainer_of(folder.name) == "sb3" or c["verdict"] != "not checked"]
-        assert shown == [c for c in published if section_name(c) == folder.name], folder.name
+        decided_here = [
+            c for c in published if section_name(c["env_id"], c["budget"], c.get("trainer", "sb3")) == folder.name
+        ]
+        assert shown == decided_here, folder.name
     verdicts = {
         (c["env_id"].split("/")[1], c["policy"], c["relation"], c["others"][0] if len(c["others"]) == 1 else ""): c
         for c in ({**c, "others": [x["b"] for x in c["comparisons"]]} for c in published)

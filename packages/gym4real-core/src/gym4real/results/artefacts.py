@@ -27,6 +27,7 @@ from typing import Any
 from gym4real.bench.published import LISTING
 from gym4real.core.datasets import sha256_of
 from gym4real.core.errors import Gym4RealError
+from gym4real.core.registry import slug
 from gym4real.rl.train import TRAINERS
 
 #: The name of a results folder: ``<env>-<budget>``, with ``-<trainer>`` for the runs of a PPO trainer other
@@ -40,6 +41,11 @@ def trainer_of(name: str) -> str:
     """The trainer of a results folder's runs, from its name: ``sb3``, or ``jax`` for ``<env>-<budget>-jax``."""
     match = FOLDER.match(name)
     return (match["trainer"] if match else None) or "sb3"
+
+
+def section_name(env_id: str, budget: str, trainer: str = "sb3") -> str:
+    """A results section's folder name, as :data:`FOLDER` reads it: ``<env>-<budget>``, ``-jax`` for the JAX trainer."""
+    return f"{slug(env_id)}-{budget}" + ("" if trainer == "sb3" else f"-{trainer}")
 
 
 #: The listing of a results folder's files.

@@ -49,8 +49,8 @@ def machines(folder: Path, report: dict[str, Any]) -> dict[str, Any]:
     """The CPU models that trained the section's runs and that tested them, as its files record them.
 
     ``trained_on``: each CPU model of ``runs.csv`` (the machine that started a run, where recorded, the
-    machine that finished it, and the machine of each resume) with its number of runs, ``not recorded`` for runs that do not say; ``tested_on``: the test
-    phase's (``report.json``).
+    machine that finished it, and the machine of each resume) with its number of runs, ``not recorded`` for
+    runs that do not say; ``tested_on``: the test phase's (``report.json``).
     """
     import pandas as pd
 

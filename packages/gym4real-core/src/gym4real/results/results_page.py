@@ -26,7 +26,16 @@ import pandas as pd
 from gym4real.bench import stats
 from gym4real.bench.numbers import human
 from gym4real.results import analysis, summary_figure, trainer_comparison, workspace
-from gym4real.results.artefacts import FOLDER, MANIFEST, PAGE, RENDERED, DamagedResultsError, read_json, trainer_of
+from gym4real.results.artefacts import (
+    FOLDER,
+    MANIFEST,
+    PAGE,
+    RENDERED,
+    DamagedResultsError,
+    read_json,
+    section_name,
+    trainer_of,
+)
 from gym4real.results.claims import QUANTITIES, RULES, VERDICTS
 from gym4real.results.fingerprints import section_changes
 from gym4real.results.headroom_page import headroom_table
@@ -41,6 +50,7 @@ from gym4real.results.section_provenance import (
     run_provenance,
 )
 from gym4real.results.stand_ins import budget_mark, difference_lines
+from gym4real.rl.train import label
 
 #: The files of a results folder that the page folder holds.
 PUBLISHED = (
@@ -106,8 +116,7 @@ def _folders(out: Path) -> list[Path]:
     envs = sorted({(m["env"], m["trainer"] or "") for p in out.iterdir() if p.is_dir() and (m := FOLDER.match(p.name))})
     found = []
     for env, trainer in envs:
-        suffix = f"-{trainer}" if trainer else ""
-        paper, quick = out / f"{env}-paper{suffix}", out / f"{env}-quick{suffix}"
+        paper, quick = (out / section_name(env, budget, trainer or "sb3") for budget in ("paper", "quick"))
         if _has_results(paper):
             found.append(paper)
             continue
@@ -206,8 +215,6 @@ class Section:
 
 def _trained_by(trainer: str) -> str:
     """What a section's title says of its trainer: nothing for SB3 (the reference), else its agent's label."""
-    from gym4real.rl.train import label
-
     return "" if trainer == "sb3" else f", trainer `{label('ppo', trainer)}` (PPO trained by {trainer.upper()})"
 
 
@@ -309,8 +316,6 @@ def trainer_comparisons(sections: list[Section]) -> list[dict[str, Any]]:
     :func:`~gym4real.results.trainer_comparison.compare` with the env, budget and both sections' names, computed
     from the two ``episodes.csv``.
     """
-    from gym4real.rl.train import label
-
     reference = {(s.report["env_id"], s.budget): s for s in sections if s.trainer == "sb3"}
     found = []
     for s in sections:
@@ -536,16 +541,13 @@ def _short_notes(c: dict[str, Any], caveat: str) -> str:
     return "<br>" + "; ".join(notes) if notes else ""
 
 
-def section_name(c: dict[str, Any]) -> str:
-    """The section a claim's record was decided in: ``<env>-<budget>``, with ``-<trainer>`` for a trainer not SB3."""
-    trainer = c.get("trainer", "sb3")
-    return f"{c['env_id'].split('/', 1)[-1]}-{c['budget']}" + ("" if trainer == "sb3" else f"-{trainer}")
+def _claim_section(c: dict[str, Any]) -> str:
+    """The section a claim's record was decided in (:func:`~gym4real.results.artefacts.section_name`)."""
+    return section_name(c["env_id"], c["budget"], c.get("trainer", "sb3"))
 
 
 def _agent(c: dict[str, Any]) -> str:
     """The PPO agent of a claim record's trainer: ``ppo-jax`` for the JAX trainer (:func:`~gym4real.rl.train.label`)."""
-    from gym4real.rl.train import label
-
     return label("ppo", c.get("trainer", "sb3"))
 
 
@@ -577,7 +579,7 @@ def claims_table(
     details = []
     for c in claims:
         env = c["env_id"].split("/", 1)[-1]
-        key = section_name(c)
+        key = _claim_section(c)
         scale = (scales or {}).get(key, 0.0)
         comp = next((x for x in c["comparisons"] if x["b"] == c.get("deciding")), None)
         budget = (marks or {}).get(key, c["budget"])
