@@ -2,10 +2,12 @@
 
 Each training run's model (SB3: ``model.zip`` and, when the preset normalises observations, the statistics
 ``normalize.npz`` it was tested with) is copied into ``<env>-<budget>/models/<algo>-seed<S>/`` when its files
-total at most :data:`MAX_BYTES`; a tabular run's ``qtable.npz`` is published as its greedy policy
-(:func:`gym4real.rl.tabular.save_greedy_table`: the action of every state, which is all a test episode
-reads, at a few percent of the table's size), the trained table's SHA-256 listed beside it, so that
-``gym4real evaluate`` on it reruns that seed's test episodes. ``models.json`` lists every model, published or
+total at most :data:`MAX_BYTES`. A trained file that holds more than a test episode reads is published as a
+smaller one that acts the same, the trained file's SHA-256 listed beside it (:data:`SLIMMED`): a tabular
+run's ``qtable.npz`` as its greedy policy (:func:`gym4real.rl.tabular.save_greedy_table`: the action of every
+state, at a few percent of the table's size), an SB3 ``model.zip`` without its optimizer's state
+(:func:`gym4real.rl.model_file.save_without_optimizer_state`: about a third of a PPO file, half of a DQN
+one), so that ``gym4real evaluate`` on it reruns that seed's test episodes. ``models.json`` lists every model, published or
 not, with the SHA-256 and size of each file, the ``gym4real evaluate`` command that tests a published one and
 the ``gym4real train`` command that trains it again (the only way to get a larger one, such as robofeeder's
 CNNs). ``gym4real evaluate`` and ``bench`` refuse a published model whose files differ from the listed
@@ -29,6 +31,7 @@ from typing import Any
 from gym4real.bench.published import FOLDER, LISTING
 from gym4real.bench.seeds import listed_seeds_flag
 from gym4real.core.registry import slug
+from gym4real.rl.model_file import save_without_optimizer_state
 from gym4real.rl.tabular import QTABLE, save_greedy_table
 from gym4real.rl.train import TrainingRun, started_by
 
@@ -36,6 +39,12 @@ from gym4real.rl.train import TrainingRun, started_by
 MAX_BYTES = 5 * 1024 * 1024
 #: Files beside a model that a policy loads with it.
 COMPANIONS = ("normalize.npz",)
+#: A trained model file published as a smaller one that acts the same: the ``models.json`` key that lists the
+#: trained file's hash, and what the published one keeps.
+SLIMMED = {
+    QTABLE: ("trained_table", "its greedy policy (the action of each state; values not kept)"),
+    "model.zip": ("trained_model", "without its optimizer's state (Adam's moments, which acting never reads)"),
+}
 
 
 def sha256_of(path: Path) -> str:
@@ -53,10 +62,16 @@ def model_files(run: TrainingRun) -> list[Path]:
 
 
 def _publish_file(source: Path, path: Path) -> Path:
-    """Write the published copy of a model file (a Q-table as its greedy policy) and return its path."""
+    """Write the published copy of a model file and return its path.
+
+    A Q-table is published as its greedy policy, an SB3 model without its optimizer's state (see
+    :data:`SLIMMED`); other files are copied.
+    """
     path.parent.mkdir(parents=True, exist_ok=True)
     if source.name == QTABLE:
         save_greedy_table(source, path)
+    elif source.name == "model.zip":
+        save_without_optimizer_state(source, path)
     else:
         shutil.copy(source, path)
     return path
@@ -98,12 +113,13 @@ def publish_models(runs: list[TrainingRun], section: Path, budget: str) -> list[
                 f"--out runs/{slug(run.env_id)}/{budget}/{run.agent}/seed{run.seed}"
             ),
         }
-        if run.model_path.name == QTABLE:
-            entry["trained_table"] = {
-                "name": QTABLE,
+        if run.model_path.name in SLIMMED:
+            key, published_as = SLIMMED[run.model_path.name]
+            entry[key] = {
+                "name": run.model_path.name,
                 "sha256": sha256_of(run.model_path),
                 "bytes": run.model_path.stat().st_size,
-                "published_as": "its greedy policy (the action of each state; values not kept)",
+                "published_as": published_as,
             }
         if published:
             path = f"{section.name}/{FOLDER}/{name}/{run.model_path.name}"
