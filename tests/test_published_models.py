@@ -29,6 +29,8 @@ RESULTS = Path(__file__).parents[1] / "docs" / "results"
         ("dam-v0-paper", "ppo", 123),
         ("wds-v0-paper", "dqn", 42),
         ("elevator-v0-paper", "sarsa", 42),
+        ("trading-v0-paper", "dqn", 10473),
+        ("trading-v0-paper", "ppo", 91352),
         ("dam-v0-paper-jax", "ppo-jax", 3),
     ],
 )
