@@ -121,7 +121,8 @@ def test_the_planning_times_are_the_sections_own_and_the_elevator_section_repeat
     assert {"dam", "elevator", "microgrid", "trading", "wds"} <= set(rows)
     for env, shown in rows.items():
         report = json.loads((RESULTS / f"{env}-v0-paper" / "report.json").read_text())
-        wall = report["upper_references"]["test_wall_time_s"]
+        # measured later (upper_references), or within the section's own test phase (a section run since)
+        wall = report.get("upper_references", report)["test_wall_time_s"]
         if shown.strip() == "under 1 s":
             assert wall < 1.0
         else:  # the recorded wall time, then (where shown) the CPU time in brackets
