@@ -22,6 +22,7 @@ from gym4real.bench.seeds import is_preset_file
 from gym4real.bench.versions import NOT_RECORDED, cpu_model, git_version
 from gym4real.core.errors import ConfigError
 from gym4real.core.registry import slug
+from gym4real.rl.curves import LearningCurve
 from gym4real.rl.imported import imported_distributions
 from gym4real.rl.presets import load_preset
 from gym4real.rl.progress import Progress
@@ -226,6 +227,7 @@ def train(
         model, steps = train_sb3(env_id, hp, seed, folder, report)
     if bar is not None:
         bar.close()
+    LearningCurve.load(folder, "episodes" if algo in ("qlearning", "sarsa") else "timesteps").draw()
     wall = previous + time.perf_counter() - start
     timing.unlink(missing_ok=True)
     run = TrainingRun(
