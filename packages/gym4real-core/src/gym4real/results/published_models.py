@@ -7,8 +7,8 @@ smaller one that acts the same, the trained file's SHA-256 listed beside it (:da
 run's ``qtable.npz`` as its greedy policy (:func:`gym4real.rl.tabular.save_greedy_table`: the action of every
 state, at a few percent of the table's size), an SB3 ``model.zip`` without its optimizer's state
 (:func:`gym4real.rl.model_file.save_without_optimizer_state`: about a third of a PPO file, half of a DQN
-one), so that ``gym4real evaluate`` on it reruns that seed's test episodes. ``models.json`` lists every model, published or
-not, with the SHA-256 and size of each file, the ``gym4real evaluate`` command that tests a published one and
+one), so that ``gym4real evaluate`` on it reruns that seed's test episodes. ``models.json`` lists every
+model, published or not, with the SHA-256 and size of each file, the ``gym4real evaluate`` command that tests a published one and
 the ``gym4real train`` command that trains it again (the only way to get a larger one, such as robofeeder's
 CNNs). ``gym4real evaluate`` and ``bench`` refuse a published model whose files differ from the listed
 SHA-256 (:mod:`gym4real.bench.published`).
