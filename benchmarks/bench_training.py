@@ -51,13 +51,14 @@ idle machine: another process on the second core slows the run. Microgrid's pape
 training households' stand-in (``gym4real data synthesize microgrid``) where the real ones are not found.
 Measured here (2-core Intel Xeon KVM guest, AVX-512, the other jobs paused), microgrid's paper preset with
 ``--trainer jax``, seed 42 (28,114,944 steps in 429 iterations, 100 evaluations of 10 year-long episodes
-beside): 11 min 34 s at ``0932e39``; 10 min 4 s at ``89ef46e`` (the epochs' permutations drawn outside the
-compiled update); 9 min 58 s and 10 min 56 s at ``aa340a9`` (the learning-curve figure drawn once), the last
-with this option: 676.9 CPU s of training and 329.8 of evaluations beside. The four runs trained the same
-model, curve and checkpoints, file for file; their spread is this shared machine's. One iteration alone (the
-other core idle) takes about 1.05 s (rollout 0.55, update 0.46, permutations 0.03): 429 of them 450 s, so
-about a third of the run is the evaluations' worker slowing the trainer on the second core (2.95 s of CPU
-per evaluation in ten single envs) and the start.
+beside), wall time: 11 min 34 s at ``0932e39``; 10 min 4 s at ``89ef46e`` (the epochs' permutations drawn
+outside the compiled update); 9 min 58 s and 10 min 56 s at ``aa340a9`` (the learning-curve figure drawn
+once; the second with this option: 677 CPU s of training, 330 of evaluations); 11 min 40 s at ``ee4d779``
+and 11 min 32 s at ``fc59b5c`` (evaluations in the native batched env: 735 and 173 CPU s). Every run trained
+the same model and curve, file for file; the spread is this shared machine's, whose speed moved by about 20 %
+within the hour (one idle iteration: 1.05 s, rollout 0.55 and update 0.46, at 00:40; 1.25 s at 02:05). One
+iteration alone is about 1.05-1.25 s: the 429 take 450-540 s; the rest is the evaluation worker on the second
+core and the start.
 
     python benchmarks/bench_training.py [--presets gym4real/dam-v0:ppo:paper,...] [--steps 20000]
     python benchmarks/bench_training.py --end-to-end [--steps 16384] [--json out.json]
