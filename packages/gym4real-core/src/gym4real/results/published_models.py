@@ -8,8 +8,8 @@ run's ``qtable.npz`` as its greedy policy (:func:`gym4real.rl.tabular.save_greed
 state, at a few percent of the table's size), an SB3 ``model.zip`` without its optimizer's state
 (:func:`gym4real.rl.model_file.save_without_optimizer_state`: about a third of a PPO file, half of a DQN
 one), so that ``gym4real evaluate`` on it reruns that seed's test episodes. ``models.json`` lists every
-model, published or not, with the SHA-256 and size of each file, the ``gym4real evaluate`` command that tests a published one and
-the ``gym4real train`` command that trains it again (the only way to get a larger one, such as robofeeder's
+model, published or not, with the SHA-256 and size of each file, the ``gym4real evaluate`` command that tests
+a published one and the ``gym4real train`` command that trains it again (the only way to get a larger one, such as robofeeder's
 CNNs). ``gym4real evaluate`` and ``bench`` refuse a published model whose files differ from the listed
 SHA-256 (:mod:`gym4real.bench.published`).
 
@@ -22,14 +22,15 @@ rows bit for bit.
 
 from __future__ import annotations
 
-import hashlib
 import json
 import shutil
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from gym4real.bench.published import FOLDER, LISTING
 from gym4real.bench.seeds import listed_seeds_flag
+from gym4real.core.datasets import sha256_of
 from gym4real.core.registry import slug
 from gym4real.rl.model_file import save_without_optimizer_state
 from gym4real.rl.tabular import QTABLE, save_greedy_table
@@ -39,21 +40,16 @@ from gym4real.rl.train import TrainingRun, started_by
 MAX_BYTES = 5 * 1024 * 1024
 #: Files beside a model that a policy loads with it.
 COMPANIONS = ("normalize.npz",)
-#: A trained model file published as a smaller one that acts the same: the ``models.json`` key that lists the
-#: trained file's hash, and what the published one keeps.
-SLIMMED = {
-    QTABLE: ("trained_table", "its greedy policy (the action of each state; values not kept)"),
-    "model.zip": ("trained_model", "without its optimizer's state (Adam's moments, which acting never reads)"),
+#: A trained model file published as a smaller one that acts the same: the function that writes it from the
+#: trained one, the ``models.json`` key that lists the trained file's hash, and what the published one keeps.
+SLIMMED: dict[str, tuple[Callable[[Path, Path], None], str, str]] = {
+    QTABLE: (save_greedy_table, "trained_table", "its greedy policy (the action of each state; values not kept)"),
+    "model.zip": (
+        save_without_optimizer_state,
+        "trained_model",
+        "without its optimizer's state (Adam's moments, which acting never reads)",
+    ),
 }
-
-
-def sha256_of(path: Path) -> str:
-    """The SHA-256 of a file, read in blocks."""
-    digest = hashlib.sha256()
-    with path.open("rb") as handle:
-        for block in iter(lambda: handle.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
 
 
 def model_files(run: TrainingRun) -> list[Path]:
@@ -68,10 +64,8 @@ def _publish_file(source: Path, path: Path) -> Path:
     :data:`SLIMMED`); other files are copied.
     """
     path.parent.mkdir(parents=True, exist_ok=True)
-    if source.name == QTABLE:
-        save_greedy_table(source, path)
-    elif source.name == "model.zip":
-        save_without_optimizer_state(source, path)
+    if source.name in SLIMMED:
+        SLIMMED[source.name][0](source, path)
     else:
         shutil.copy(source, path)
     return path
@@ -114,7 +108,7 @@ def publish_models(runs: list[TrainingRun], section: Path, budget: str) -> list[
             ),
         }
         if run.model_path.name in SLIMMED:
-            key, published_as = SLIMMED[run.model_path.name]
+            _, key, published_as = SLIMMED[run.model_path.name]
             entry[key] = {
                 "name": run.model_path.name,
                 "sha256": sha256_of(run.model_path),

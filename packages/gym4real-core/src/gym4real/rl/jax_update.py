@@ -7,9 +7,8 @@ as SB3 2.x's ``PPO.train`` does (and tested against it on the same batch):
 
 - **Mini-batches**: each epoch a fresh permutation of the rollout's rows (:func:`epoch_orders`, drawn before
   the call) cut into ``batch_size`` slices (the last one shorter when the rows do not divide), every row once
-  per epoch. Rows marked invalid (the
-  native env's autoreset steps, :mod:`gym4real.rl.rollout_kernel`) and the padding that makes the last
-  slice full weigh 0: every mean below is over a mini-batch's valid rows.
+  per epoch. Rows marked invalid (the native env's autoreset steps, :mod:`gym4real.rl.rollout_kernel`) and
+  the padding that makes the last slice full weigh 0: every mean below is over a mini-batch's valid rows.
 - **Advantages** normalised per mini-batch: ``(A - mean) / (std + 1e-8)``, ``std`` with Bessel's correction
   (``torch.std``), not for a mini-batch of one row (``normalize_advantage``).
 - **Clipped surrogate**: ``-mean(min(A r, A clip(r, 1 - eps, 1 + eps)))``, ``r = exp(log p - log p_old)``.
