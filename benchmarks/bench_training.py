@@ -44,10 +44,27 @@ round (two runs: in-line 12.1 and 13.9, beside 8.9 and 7.3 CPU s per round); the
 from 60-72 s to 30-37 s (7.6-8.6 s per iteration, inflated by the load). dam's paper preset (13 year-long
 episodes every 5 iterations of 2,048 steps) saves nothing measurable: 0.013 CPU s per iteration of about 0.25.
 
+With ``--full-run ENV:ALGO:PRESET``: one whole training run, as ``gym4real train --trainer T`` runs it (its
+checkpoint evaluations beside training where the process may use two cores), in a temporary folder: the
+wall seconds, and the CPU seconds of this process and of its children (the evaluation worker). Measure on an
+idle machine: another process on the second core slows the run. Microgrid's paper preset trains on the
+training households' stand-in (``gym4real data synthesize microgrid``) where the real ones are not found.
+Measured here (2-core Intel Xeon KVM guest, AVX-512, the other jobs paused), microgrid's paper preset with
+``--trainer jax``, seed 42 (28,114,944 steps in 429 iterations, 100 evaluations of 10 year-long episodes
+beside), wall time: 11 min 34 s at ``0932e39``; 10 min 4 s at ``89ef46e`` (the epochs' permutations drawn
+outside the compiled update); 9 min 58 s and 10 min 56 s at ``aa340a9`` (the learning-curve figure drawn
+once; the second with this option: 677 CPU s of training, 330 of evaluations); 11 min 40 s at ``ee4d779``
+and 11 min 32 s at ``fc59b5c`` (evaluations in the native batched env: 735 and 173 CPU s). Every run trained
+the same model and curve, file for file; the spread is this shared machine's, whose speed moved by about 20 %
+within the hour (one idle iteration: 1.05 s, rollout 0.55 and update 0.46, at 00:40; 1.25 s at 02:05). One
+iteration alone is about 1.05-1.25 s: the 429 take 450-540 s; the rest is the evaluation worker on the second
+core and the start.
+
     python benchmarks/bench_training.py [--presets gym4real/dam-v0:ppo:paper,...] [--steps 20000]
     python benchmarks/bench_training.py --end-to-end [--steps 16384] [--json out.json]
     python benchmarks/bench_training.py --trainers [--presets gym4real/microgrid-v0:ppo:paper] [--iterations 2]
     python benchmarks/bench_training.py --evaluations [--presets gym4real/dam-v0:ppo:paper] [--iterations 2]
+    python benchmarks/bench_training.py --full-run gym4real/microgrid-v0:ppo:paper [--trainer jax] [--seed 42]
 """
 
 from __future__ import annotations
@@ -381,6 +398,35 @@ def _evaluation_rounds(item: str, env_kwargs: dict[str, Any] | None, rounds: int
     return row
 
 
+def _full_run(item: str, trainer: str, seed: int) -> dict[str, Any]:
+    """One whole training run of ``item`` by ``trainer``: its wall and CPU seconds (this process, its children)."""
+    import resource
+
+    from gym4real.bench.versions import available_cpus, cpu_model
+    from gym4real.rl.train import train
+
+    env_id, algo, preset = item.split(":")
+    before = [resource.getrusage(who) for who in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN)]
+    with tempfile.TemporaryDirectory() as folder:
+        start = time.perf_counter()
+        run = train(env_id, algo, preset, seed=seed, out=Path(folder) / "run", trainer=trainer)
+        wall = time.perf_counter() - start
+    after = [resource.getrusage(who) for who in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN)]
+    cpu = [(a.ru_utime + a.ru_stime) - (b.ru_utime + b.ru_stime) for a, b in zip(after, before, strict=True)]
+    return {
+        "preset": item,
+        "trainer": trainer,
+        "seed": seed,
+        "train steps": run.env_steps,
+        "eval steps": run.eval_steps,
+        "wall s": wall,
+        "wall min": wall / 60,
+        "CPU s (this process)": cpu[0],
+        "CPU s (children: evaluations beside)": cpu[1],
+        "machine": f"{cpu_model()}, {available_cpus()} cores",
+    }
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--presets", default=None, help="comma-separated ENV:ALGO:PRESET")
@@ -392,8 +438,15 @@ def main() -> None:
     parser.add_argument(
         "--iterations", type=int, default=2, help="(--trainers) timed iterations per trainer; (--evaluations) rounds"
     )
+    parser.add_argument("--full-run", metavar="ENV:ALGO:PRESET", help="one whole training run, timed")
+    parser.add_argument("--trainer", default="jax", choices=["sb3", "jax"], help="(--full-run) PPO's trainer")
+    parser.add_argument("--seed", type=int, default=42, help="(--full-run) the run's seed")
     args = parser.parse_args()
     gym4real.register_envs()
+    if args.full_run:
+        row = _full_run(args.full_run, args.trainer, args.seed)
+        report([row], list(row), 4, args.json)
+        return
     if args.trainers:
         items = args.presets.split(",") if args.presets else list(TRAINERS)
         rows = [r for item in items for r in _trainers(item, TRAINERS.get(item), args.iterations, 20_000)]

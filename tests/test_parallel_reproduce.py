@@ -367,6 +367,16 @@ def test_reproduce_plan_prints_the_runs_and_the_wall_time_and_trains_nothing(
     assert "pass it with --ray" in capsys.readouterr().err
 
 
+#: Runs of the committed page whose wall time does not measure a step rate: trained several at a time on a
+#: loaded machine. Their recorded rate was measured idle instead (``benchmarks/bench_training.py``).
+TRAINED_UNDER_LOAD = {
+    # retrained at c7580ba three at a time on 2 cores beside other work, 616 s a run on average; idle at
+    # c6ab6b9, `--presets gym4real/trading-v0:dqn:hourly`: 2,820 steps per CPU s, 66 s of training a run
+    # (81 s with its validation, as recorded)
+    ("gym4real/trading-v0", "dqn"),
+}
+
+
 def test_the_recorded_rates_are_within_a_factor_two_of_the_results_pages_measured_runs(tmp_path: Path) -> None:
     """``--plan``'s recorded rate of every algorithm with a paper section on the committed page, against its runs."""
     import pandas as pd
@@ -375,6 +385,7 @@ def test_the_recorded_rates_are_within_a_factor_two_of_the_results_pages_measure
 
     sections = sorted((Path(__file__).resolve().parents[1] / "docs" / "results").glob("*-paper/runs.csv"))
     assert len(sections) >= 6
+    loaded = set()
     for runs_csv in sections:
         runs = pd.read_csv(runs_csv)
         report = json.loads((runs_csv.parent / "report.json").read_text())
@@ -383,8 +394,13 @@ def test_the_recorded_rates_are_within_a_factor_two_of_the_results_pages_measure
             item = next(i for i in plan(report["env_id"], "paper", 1, tmp_path) if i.algo == algo)
             (guess,) = estimate([item], tmp_path)
             assert guess.source == "budget x recorded step rate" and guess.cpu_s is not None
+            if (report["env_id"], algo) in TRAINED_UNDER_LOAD:
+                loaded.add((report["env_id"], algo))
+                assert guess.cpu_s < measured  # a loaded machine only slows a run down
+                continue
             # a rate per callback call was 8x off for wds; trading's and elevator's were 8x and 7x stale
             assert measured / 2 < guess.cpu_s < 2 * measured, (report["env_id"], algo, guess.cpu_s, measured)
+    assert loaded == TRAINED_UNDER_LOAD  # every exception is a run of the page
 
 
 class _Pool:

@@ -29,16 +29,24 @@ RESULTS = Path(__file__).parents[1] / "docs" / "results"
         ("dam-v0-paper", "ppo", 123),
         ("wds-v0-paper", "dqn", 42),
         ("elevator-v0-paper", "sarsa", 42),
+        ("trading-v0-paper", "dqn", 10473),
+        ("trading-v0-paper", "ppo", 91352),
+        ("dam-v0-paper-jax", "ppo-jax", 3),
     ],
 )
 def test_the_listed_evaluate_command_reproduces_the_published_model_s_test_episodes(
     section: str, algo: str, seed: int, listed_evaluate: Callable[[dict[str, Any], Path], pd.DataFrame]
 ) -> None:
     """``models.json``'s command, run as written in the page folder, scores that seed's rows of ``episodes.csv``
-    (it said ``--seeds 0``, a count the CLI refuses; ``--seeds 1`` evaluated the plan's first seed instead)."""
+    (it said ``--seeds 0``, a count the CLI refuses; ``--seeds 1`` evaluated the plan's first seed instead).
+
+    ``algo`` is the agent's name in ``episodes.csv`` (``ppo-jax``: a PPO model of the JAX trainer)."""
+    from gym4real.rl.train import label
+
     pytest.importorskip("stable_baselines3")
     folder = RESULTS / section
-    model = next(m for m in json.loads((folder / "models.json").read_text()) if (m["algo"], m["seed"]) == (algo, seed))
+    listing = json.loads((folder / "models.json").read_text())
+    model = next(m for m in listing if (label(m["algo"], m.get("trainer", "sb3")), m["seed"]) == (algo, seed))
     assert model["published"] and model["bytes"] <= MAX_BYTES
     for file in model["files"]:
         assert sha256_of(folder / Path(model["path"]).parent / file["name"]) == file["sha256"], file["name"]
@@ -64,7 +72,7 @@ def test_a_model_stated_to_agree_within_a_tolerance_is_not_said_to_agree_exactly
     measure objective differences up to 1.6e-4: a note states the measured agreement, ``agreement`` the
     tolerance the listed-command test holds it to, and a model given one is not said to agree exactly."""
     stated = 0
-    for listing in sorted(RESULTS.glob("*-paper/models.json")):
+    for listing in sorted(RESULTS.glob("*/models.json")):
         for model in json.loads(listing.read_text()):
             rtol = model.get("agreement", {}).get("rtol", 0.0)
             if rtol:
@@ -76,7 +84,7 @@ def test_a_model_stated_to_agree_within_a_tolerance_is_not_said_to_agree_exactly
 
 def test_every_published_model_is_listed_with_its_hash_in_the_manifest() -> None:
     manifest = json.loads((RESULTS / "manifest.json").read_text())
-    for listing in sorted(RESULTS.glob("*-paper/models.json")):
+    for listing in sorted(RESULTS.glob("*/models.json")):
         section = listing.parent.name
         files = manifest["provenance"][section]["files"]
         for model in json.loads(listing.read_text()):

@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from gym4real.bench.versions import NOT_RECORDED
 from gym4real.results import fingerprints
 from gym4real.results.provenance import RUNS_TEXT
 from gym4real.results.published_models import sha256_of
@@ -177,7 +178,7 @@ def test_runs_and_test_phase_record_the_cpu_model_and_the_manifest_the_machines(
     )
     assert run["cpu"] == cpu
     section = elevator_quick / "elevator-v0-quick"
-    assert pd.read_csv(section / "runs.csv")["cpu"].tolist() == [cpu, cpu]
+    assert pd.read_csv(section / "runs.csv")[["started_on", "cpu"]].values.tolist() == [[cpu, cpu], [cpu, cpu]]
     assert json.loads((section / "report.json").read_text())["cpu"] == cpu
     manifest = json.loads((elevator_quick / "manifest.json").read_text())
     assert manifest["provenance"]["elevator-v0-quick"]["machines"] == {"trained_on": {cpu: 2}, "tested_on": cpu}
@@ -288,3 +289,18 @@ def test_the_committed_sections_verification_sentences_read_as_words() -> None:
         for part, sentence in json.loads(report.read_text()).get("fingerprints_verified", {}).items():
             assert "-dirty" not in sentence, (report.parent.name, part)
             assert " of the 0 data files" not in sentence, (report.parent.name, part)
+
+
+def test_a_section_names_the_commits_that_trained_its_runs_apart_from_its_test_phase() -> None:
+    """A section tested again at a later commit (its runs reused) says where its runs were trained, not the test's."""
+    from gym4real.results.section_provenance import code_versions
+
+    runs = pd.DataFrame(
+        {"algo": ["ppo", "ppo", "dqn"], "seed": [0, 1, 0], "trained_by": ["aaa1111", "bbb2222", "aaa1111"]}
+    )
+    assert code_versions(runs, "ccc3333") == "Trained at code versions `aaa1111`, `bbb2222` (test phase at `ccc3333`)"
+    assert code_versions(runs.iloc[[0, 2]], "aaa1111") == "Trained at code version `aaa1111`"
+    assert code_versions(None, "ccc3333") == "Trained at code version `ccc3333`"
+    unknown = pd.DataFrame({"algo": ["ppo"], "seed": [0], "trained_by": [NOT_RECORDED]})
+    assert code_versions(unknown, "ccc3333") == "Trained at code version `ccc3333`"
+    assert code_versions(runs.drop(columns="trained_by"), "ccc3333") == "Trained at code version `ccc3333`"

@@ -75,16 +75,46 @@ def test_a_difference_takes_the_same_episodes_for_both_policies() -> None:
     _same_distribution(_frequencies(sampled), exact)
 
 
-def test_the_interval_bounds_are_the_exact_distributions_quantiles() -> None:
-    scores = np.array([[1.0, 2.0, 4.0], [8.0, 16.0, 32.0]])
-    exact = _exact([scores], [True], _iqm)
-    _, low, high = stats.iqm_ci(scores, trained=True)
+def _assert_ends_are_quantiles(exact: dict[float, float], low: float, high: float) -> None:
+    """``low`` and ``high`` are the 2.5 % and 97.5 % quantiles of the exact distribution (to 1 % of mass)."""
     below = sum(p for v, p in exact.items() if v < low - 1e-9)
     at_or_below = sum(p for v, p in exact.items() if v <= low + 1e-9)
     assert below <= 0.025 + 0.01 and at_or_below >= 0.025 - 0.01
     above = sum(p for v, p in exact.items() if v > high + 1e-9)
     at_or_above = sum(p for v, p in exact.items() if v >= high - 1e-9)
     assert above <= 0.025 + 0.01 and at_or_above >= 0.025 - 0.01
+
+
+def test_the_interval_bounds_are_the_exact_distributions_quantiles() -> None:
+    scores = np.array([[1.0, 2.0, 4.0], [8.0, 16.0, 32.0]])
+    exact = _exact([scores], [True], _iqm)
+    _, low, high = stats.iqm_ci(scores, trained=True)
+    _assert_ends_are_quantiles(exact, low, high)
+
+
+def test_two_trained_policies_draw_their_seeds_on_their_own_and_the_episodes_together() -> None:
+    """Two trainers' runs (issue 43): each replicate draws each policy's seeds apart, the episodes once for both."""
+    a = np.array([[1.0, 3.0], [2.0, 9.0]])
+    b = np.array([[0.0, 8.0], [5.0, 4.0]])
+    stat = stats.batched("iqm")
+    sampled = stats.replicates([a, b], [True, True], lambda x, y: stat(x) - stat(y), seed=0, reps=REPS)
+    exact = _exact([a, b], [True, True], lambda x, y: _iqm(x) - _iqm(y))
+    _same_distribution(_frequencies(sampled), exact)
+    # drawing the same seed indices for both policies would give another distribution
+    counts: Counter[float] = Counter()
+    for cols in itertools.product(range(2), repeat=2):
+        for rows in itertools.product(range(2), repeat=2):
+            counts[round(_iqm(a[np.ix_(rows, cols)]) - _iqm(b[np.ix_(rows, cols)]), 9)] += 1
+    assert set(counts) != set(exact)
+
+
+def test_the_difference_of_two_trained_policies_has_the_exact_distributions_quantiles_as_ends() -> None:
+    a = np.array([[1.0, 2.0, 4.0], [8.0, 16.0, 32.0]])
+    b = np.array([[3.0, 1.0, 7.0], [2.0, 5.0, 11.0], [6.0, 0.5, 9.0]])
+    exact = _exact([a, b], [True, True], lambda x, y: _iqm(x) - _iqm(y))
+    estimate, low, high = stats.difference_ci(a, b, True, True, "iqm", seed=0, level=0.95)
+    assert estimate == pytest.approx(_iqm(a) - _iqm(b))
+    _assert_ends_are_quantiles(exact, low, high)
 
 
 def test_the_interval_is_reproducible_under_its_seed() -> None:

@@ -271,6 +271,71 @@ def test_an_interrupted_tabular_run_resumes_to_the_same_table(tmp_path: Path) ->
         train("gym4real/elevator-v0", "qlearning", preset, seed=4, out=tmp_path / "cut")
 
 
+def test_a_resumed_run_keeps_the_commit_and_cpu_that_started_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Issue 47: a run started at X on machine A and resumed at Y on B said "trained by Y"; X and A were lost."""
+    import importlib
+
+    from gym4real.results.page_manifest import machines
+    from gym4real.results.provenance import runs_table
+    from gym4real.results.published_models import publish_models
+    from gym4real.results.section_provenance import code_versions, run_provenance
+
+    trainer = importlib.import_module("gym4real.rl.train")
+    preset = _elevator_preset(tmp_path, episodes="6", patience="10")
+
+    def segment(commit: str, cpu: str) -> None:
+        monkeypatch.setattr(trainer, "git_version", lambda: commit)
+        monkeypatch.setattr(trainer, "cpu_model", lambda: cpu)
+
+    def stop_at_five(done: int, total: int) -> None:
+        if done == 5:
+            raise _Interrupt
+
+    segment("aaa1111", "CPU A")
+    with pytest.raises(_Interrupt):
+        train("gym4real/elevator-v0", "qlearning", preset, seed=3, out=tmp_path / "cut", progress=stop_at_five)
+    segment("bbb2222", "CPU B")
+    run = train("gym4real/elevator-v0", "qlearning", preset, seed=3, out=tmp_path / "cut")
+    record = json.loads((tmp_path / "cut" / "run.json").read_text())
+    assert record["started"] == {"code_version": "aaa1111", "cpu": "CPU A"}
+    assert [(r["code_version"], r["cpu"]) for r in record["resumes"]] == [("bbb2222", "CPU B")]
+    assert (record["versions"]["gym4real (git)"], record["cpu"]) == ("bbb2222", "CPU B")  # the finishing process
+    assert not (tmp_path / "cut" / "started.json").exists()  # taken over by run.json, as the resumes are
+    runs = runs_table([run])
+    assert runs[["trained_by", "started_on", "cpu"]].values.tolist() == [["aaa1111", "CPU A", "CPU B"]]
+    trained, resumed = run_provenance(runs, "qlearning", 3)
+    assert trained == "`aaa1111`" and resumed.endswith("episodes by `bbb2222`")
+    assert code_versions(runs, "ccc3333") == "Trained at code version `aaa1111` (test phase at `ccc3333`)"
+    runs.to_csv(tmp_path / "runs.csv", index=False)
+    assert machines(tmp_path, {})["trained_on"] == {"CPU A": 1, "CPU B": 1}
+    assert publish_models([run], tmp_path / "section", "quick")[0]["trained_by"] == "aaa1111"  # models.json
+    # a run never interrupted started and finished at the same commit, on the same machine
+    whole = train("gym4real/elevator-v0", "qlearning", preset, seed=3, out=tmp_path / "whole")
+    assert json.loads((tmp_path / "whole" / "run.json").read_text())["started"] == {
+        "code_version": "bbb2222",
+        "cpu": "CPU B",
+    }
+    assert runs_table([whole])["trained_by"].tolist() == ["bbb2222"]
+
+
+def test_a_run_recorded_before_its_start_was_names_the_commit_that_finished_it(tmp_path: Path) -> None:
+    """An old run.json without ``started``: runs.csv keeps the finishing commit and does not invent a start CPU."""
+    from gym4real.bench.versions import NOT_RECORDED
+    from gym4real.results.provenance import runs_table
+
+    run = train("gym4real/elevator-v0", "qlearning", _elevator_preset(tmp_path, episodes="4"), seed=1, out=tmp_path)
+    record = json.loads((tmp_path / "run.json").read_text())
+    del record["started"]
+    record["versions"]["gym4real (git)"] = "ddd4444"
+    (tmp_path / "run.json").write_text(json.dumps(record))
+    assert runs_table([run])[["trained_by", "started_on"]].values.tolist() == [["ddd4444", NOT_RECORDED]]
+    # a start by code without a version (no checkout, no GYM4REAL_CODE_VERSION) is not a commit either
+    (tmp_path / "run.json").write_text(json.dumps({**record, "started": {"code_version": "unknown", "cpu": "CPU A"}}))
+    assert runs_table([run])[["trained_by", "started_on"]].values.tolist() == [[NOT_RECORDED, "CPU A"]]
+
+
 TRADING_DQN = """
 algo: dqn
 total_timesteps: 408
@@ -402,3 +467,24 @@ def test_a_greedy_table_acts_as_its_q_table_in_every_state(tmp_path: Path) -> No
         assert np.argmax(greedy["q"][150]) == 1 and np.argmax(greedy["q"][50]) == 0
         assert str(greedy["env_id"]) == "gym4real/elevator-v0" and str(greedy["algo"]) == "qlearning"
         assert np.array_equal(greedy["radices"], radices)
+
+
+def test_the_learning_curve_figure_is_drawn_once_when_the_run_ends(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Each evaluation redrew curve.png: 0.4 s of the training process each, 100 times in a microgrid run."""
+    from gym4real.rl.curves import LearningCurve
+
+    drawn: list[int] = []
+    figure = LearningCurve.figure
+
+    def counted(self: LearningCurve) -> Any:
+        drawn.append(len(self.rows))
+        return figure(self)
+
+    monkeypatch.setattr(LearningCurve, "figure", counted)
+    preset = _elevator_preset(tmp_path, episodes="6", eval_episodes="2", patience="10")
+    run = train("gym4real/elevator-v0", "qlearning", preset, seed=1, out=tmp_path / "run")
+    assert len(pd.read_csv(run.curve_csv)) == 3
+    assert drawn == [3]  # once, with every evaluation
+    assert (tmp_path / "run" / "curve.png").stat().st_size > 0

@@ -217,3 +217,60 @@ def test_the_data_entry_of_a_model_on_camera_images_is_read(tmp_path: Path, monk
     monkeypatch.setattr(model_file, "MAX_DATA_BYTES", 2**20)  # a larger entry is still refused, by its size
     with pytest.raises(PolicyError, match="bytes; a Stable-Baselines3 model writes a few KB"):
         model_file.read_data(model)
+
+
+@pytest.mark.parametrize(
+    ("kind", "env_id"), [("ppo", "gym4real/dam-v0"), ("dqn", "gym4real/elevator-v0"), ("sb3:sac", "gym4real/dam-v0")]
+)
+def test_a_model_without_its_optimizer_state_acts_as_the_trained_one_and_is_smaller(
+    kind: str, env_id: str, tmp_path: Path
+) -> None:
+    """Published models: the trading ones were 4.5-6.4 MB, two thirds of it Adam's moments (issue 47)."""
+    import stable_baselines3 as sb3
+    import torch
+
+    from gym4real.rl.model_file import save_without_optimizer_state
+
+    trained, slim = tmp_path / "trained.zip", tmp_path / "slim.zip"
+    _saved_model(kind, env_id, trained)
+    save_without_optimizer_state(trained, slim)
+    assert slim.stat().st_size < 0.6 * trained.stat().st_size
+    with zipfile.ZipFile(trained) as full, zipfile.ZipFile(slim) as kept:
+        assert full.namelist() == kept.namelist()
+        optimizers = [n for n in full.namelist() if n.endswith("optimizer.pth")]
+        assert optimizers and len(optimizers) == (3 if kind == "sb3:sac" else 1)
+        for name in full.namelist():
+            if name not in optimizers:  # settings and weights byte for byte
+                assert full.read(name) == kept.read(name), name
+    env = gym.make(env_id)
+    reference, loaded = make_policy(env_id, f"{kind}:{trained}", env), make_policy(env_id, f"{kind}:{slim}", env)
+    obs, _ = env.reset(seed=3)
+    for _ in range(20):
+        action = loaded(obs)
+        np.testing.assert_array_equal(action, reference(obs))
+        obs, *_ = env.step(action)
+    if kind == "ppo":  # SB3 reads it too: the parameter groups are kept, the state is empty
+        model = sb3.PPO.load(slim, device="cpu")
+        assert model.policy.optimizer.state_dict()["state"] == {}
+        original = sb3.PPO.load(trained, device="cpu").policy.parameters()
+        for mine, theirs in zip(model.policy.parameters(), original, strict=True):
+            assert torch.equal(mine, theirs)
+
+
+def test_a_file_whose_optimizer_entry_is_not_an_optimizer_state_is_not_published(tmp_path: Path) -> None:
+    import io
+
+    import torch
+
+    from gym4real.rl.model_file import save_without_optimizer_state
+
+    trained = tmp_path / "model.zip"
+    _saved_model("ppo", "gym4real/dam-v0", trained)
+    forged = tmp_path / "forged.zip"
+    with zipfile.ZipFile(trained) as full, zipfile.ZipFile(forged, "w") as out:
+        for name in full.namelist():
+            buffer = io.BytesIO()
+            torch.save({"weights": torch.zeros(3)}, buffer)
+            out.writestr(name, buffer.getvalue() if name == "policy.optimizer.pth" else full.read(name))
+    with pytest.raises(PolicyError, match=r"`policy\.optimizer\.pth` is not an optimizer's state"):
+        save_without_optimizer_state(forged, tmp_path / "slim.zip")

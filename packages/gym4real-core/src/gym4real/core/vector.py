@@ -1,4 +1,9 @@
-"""What the native batched envs share: the episode limit of a vector entry point, their copies' generators."""
+"""What the native batched envs share: the episode limit of a vector entry point, their copies' generators.
+
+A native batched env whose copies give the single env's numbers bit for bit (observations, rewards, flags,
+info) says so with a boolean attribute ``exact_copies`` (microgrid's with its compiled step);
+:func:`exact_copies` reads it, False where an env does not declare it.
+"""
 
 from __future__ import annotations
 
@@ -29,6 +34,11 @@ def check_max_episode_steps(value: object) -> int | None:
     if steps is None or steps < 1:
         raise ValueError(f"max_episode_steps must be a positive int (or None for no limit), not {value!r}")
     return steps
+
+
+def exact_copies(vector: Any) -> bool:
+    """Whether a native batched env declares that its copies give the single env's numbers bit for bit."""
+    return bool(getattr(vector, "exact_copies", False))
 
 
 def copy_generators(env: Any, current: list[np.random.Generator] | None, seed: int | None) -> list[np.random.Generator]:

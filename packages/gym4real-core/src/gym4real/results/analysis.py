@@ -22,7 +22,8 @@ import pandas as pd
 
 from gym4real.bench import stats
 from gym4real.bench.episodes import score_matrices
-from gym4real.results.claims import check_claim, identical, quantity_scores
+from gym4real.results.artefacts import trainer_of
+from gym4real.results.claims import check_claim, identical, on_trainer, quantity_scores
 
 #: Thresholds of the performance profile.
 PROFILE_POINTS = 101
@@ -98,8 +99,15 @@ def improvement(episodes: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=["agent", "baseline", "p", "low", "high"])
 
 
-def check_claims(env_id: str, budget: str, episodes: pd.DataFrame, bootstrap_seed: int = 0) -> list[dict[str, Any]]:
+def check_claims(
+    env_id: str, budget: str, episodes: pd.DataFrame, trainer: str, bootstrap_seed: int = 0
+) -> list[dict[str, Any]]:
     """Every claim the env's protocol declares, checked on the scores of ``episodes`` (each on its quantity).
+
+    ``trainer`` trained the section's agents (:func:`~gym4real.results.artefacts.trainer_of` its folder): in a
+    section of a trainer other than SB3 each claim is checked on that trainer's PPO agent in place of ``ppo``
+    (:func:`~gym4real.results.claims.on_trainer`; ``ppo-jax`` for the JAX trainer), and its record names the
+    trainer (``trainer``). A claim whose policy has no rows in ``episodes`` is ``not checked``.
 
     A claim about an agent whose every seed scores as a baseline in every test episode (:func:`identical`)
     records that baseline (``identical_to``): the agent learned nothing the baseline does not do.
@@ -116,13 +124,15 @@ def check_claims(env_id: str, budget: str, episodes: pd.DataFrame, bootstrap_see
         if (same := next((b for b in scores if b not in trained and identical(scores[agent], scores[b])), None))
     }
     records = []
-    for claim in protocol(env_id).claims:
+    for claim in (on_trainer(c, trainer) for c in protocol(env_id).claims):
         own = scores if claim.quantity == "objective" else quantity_scores(episodes, claim.quantity)
         beside = None if claim.quantity == "objective" else scores
         record = check_claim(claim, own, trained, seeds.get(claim.policy) or None, beside, bootstrap_seed)
         if claim.policy in learned:  # every seed plays a baseline's episodes: the verdict is about that baseline
             record["identical_to"] = learned[claim.policy]
-        records.append({"env_id": env_id, "budget": budget, **record})
+        records.append(
+            {"env_id": env_id, "budget": budget, **record, **({} if trainer == "sb3" else {"trainer": trainer})}
+        )
     return records
 
 
@@ -167,11 +177,14 @@ def profile_figure(episodes: pd.DataFrame, path: Path, title: str) -> None:
 
 
 def analyse(folder: Path, env_id: str, budget: str) -> list[dict[str, Any]]:
-    """Write ``summary.csv``, ``improvement.csv``, ``claims.json`` and the profile figure from ``episodes.csv``."""
+    """Write ``summary.csv``, ``improvement.csv``, ``claims.json`` and the profile figure from ``episodes.csv``.
+
+    The claims are checked on the agents of the folder's trainer (:func:`~gym4real.results.artefacts.trainer_of`).
+    """
     episodes = pd.read_csv(folder / "episodes.csv")
     summary(episodes).to_csv(folder / "summary.csv", index=False)
     improvement(episodes).to_csv(folder / "improvement.csv", index=False)
-    claims = check_claims(env_id, budget, episodes)
+    claims = check_claims(env_id, budget, episodes, trainer_of(folder.name))
     (folder / "claims.json").write_text(json.dumps(claims, indent=1))
     profile_figure(episodes, folder / "performance_profile.png", env_id)
     return claims
@@ -180,13 +193,15 @@ def analyse(folder: Path, env_id: str, budget: str) -> list[dict[str, Any]]:
 def recheck(folder: Path) -> list[dict[str, Any]]:
     """Decide a published section's claims again from its ``episodes.csv`` under the current rules, no training.
 
-    Rewrites ``claims.json`` (env and budget from ``report.json``) and, where the section has ``placements.csv``,
-    its workspace heat map; ``results_page.write_page(page, page)`` then renders the page from these files.
+    Rewrites ``claims.json`` (env and budget from ``report.json``, the trainer from the folder's name) and, where
+    the section has ``placements.csv``, its workspace heat map; ``results_page.write_page(page, page)`` then
+    renders the page from these files.
     """
     from gym4real.results import workspace
 
     report = json.loads((folder / "report.json").read_text())
-    claims = check_claims(report["env_id"], report["budget"], pd.read_csv(folder / "episodes.csv"))
+    episodes = pd.read_csv(folder / "episodes.csv")
+    claims = check_claims(report["env_id"], report["budget"], episodes, trainer_of(folder.name))
     (folder / "claims.json").write_text(json.dumps(claims, indent=1))
     workspace.heatmap_figure(folder, report["env_id"])
     return claims

@@ -4,7 +4,8 @@
 the output folder of ``gym4real reproduce``) publishes, besides whether its sections are current:
 
 - ``manifest.json`` must be readable; every file it lists (each section's data, statistics, figures,
-  ``report.json``, ``models.json`` and models; the page's ``index.md``, ``claims.json`` and summary figure)
+  ``report.json``, ``models.json`` and models; the page's ``index.md``, ``claims.json``, summary figure and,
+  with two PPO trainers' sections of an env, ``trainers.json``)
   must be there with its SHA-256;
 - every section it lists must be there, and no other: a section folder, or a file inside one, that it does
   not list is unknown; so is, in a page folder, any other file or folder beside the page (an output folder
@@ -17,9 +18,8 @@ Each problem names the file and its section. A folder with any of them is *damag
 
 from __future__ import annotations
 
-import re
-
 import json
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -27,6 +27,7 @@ from typing import Any
 from gym4real.bench.published import LISTING
 from gym4real.core.datasets import sha256_of
 from gym4real.core.errors import Gym4RealError
+from gym4real.core.registry import slug
 from gym4real.rl.train import TRAINERS
 
 #: The name of a results folder: ``<env>-<budget>``, with ``-<trainer>`` for the runs of a PPO trainer other
@@ -40,6 +41,11 @@ def trainer_of(name: str) -> str:
     """The trainer of a results folder's runs, from its name: ``sb3``, or ``jax`` for ``<env>-<budget>-jax``."""
     match = FOLDER.match(name)
     return (match["trainer"] if match else None) or "sb3"
+
+
+def section_name(env_id: str, budget: str, trainer: str = "sb3") -> str:
+    """A results section's folder name, as :data:`FOLDER` reads it: ``<env>-<budget>``, ``-jax`` for the JAX trainer."""
+    return f"{slug(env_id)}-{budget}" + ("" if trainer == "sb3" else f"-{trainer}")
 
 
 #: The listing of a results folder's files.
@@ -105,6 +111,7 @@ class Verification:
     problems: dict[str, list[str]] = field(default_factory=dict)
 
     def add(self, section: str, problem: str) -> None:
+        """Record ``problem`` under ``section``."""
         self.problems.setdefault(section, []).append(problem)
 
     def lines(self) -> list[str]:

@@ -10,6 +10,7 @@ that decided it.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -18,6 +19,7 @@ import pandas as pd
 from gym4real.bench import stats
 from gym4real.bench.episodes import score_matrices
 from gym4real.core.specs import Claim
+from gym4real.rl.train import label
 
 #: The family level of a claim: its m intervals are Bonferroni-simultaneous, each at 1 - 0.05 / m.
 FAMILY_LEVEL = 0.95
@@ -69,6 +71,34 @@ RULES: dict[str, str] = {
     "seed's) takes each at level 1 - 0.05/m (Bonferroni: the m intervals cover together with probability at "
     "least 95 %); it holds when every one holds, is refuted when one is refuted, and is inconclusive otherwise",
 }
+
+
+def trained_by(trainer: str) -> str:
+    """How a section of a trainer other than SB3 names its agent: ``PPO trained by the JAX trainer, `ppo-jax```."""
+    return f"PPO trained by the {trainer.upper()} trainer, `{label('ppo', trainer)}`"
+
+
+def on_trainer(claim: Claim, trainer: str) -> Claim:
+    """The claim as a section of ``trainer``'s runs checks it: its PPO agent is the one that trainer trained.
+
+    The protocol's claims name ``ppo``, the agent of the reference trainer (SB3); a section of the JAX
+    trainer's runs holds ``ppo-jax`` in its place (:func:`gym4real.rl.train.label`). Every ``ppo`` of the
+    claim (its policy and the others) becomes that agent, and its text says so (:func:`trained_by`). An SB3
+    section's claims are returned as they are.
+    """
+    if trainer == "sb3":
+        return claim
+    agent = label("ppo", trainer)
+
+    def swap(policy: str) -> str:
+        return agent if policy == "ppo" else policy
+
+    return replace(
+        claim,
+        text=f"{claim.text} ({trained_by(trainer)})",
+        policy=swap(claim.policy),
+        others=tuple(swap(p) for p in claim.others),
+    )
 
 
 def statistic_of(claim: Claim) -> str:

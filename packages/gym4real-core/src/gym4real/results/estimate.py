@@ -32,7 +32,9 @@ def _per_unit(minutes: float, runs: int, units: int) -> float:
 
 #: Seconds of one CPU per budget unit (timestep or episode), validation included: the paper-budget runs of
 #: docs/results (code e4bd47b, microgrid 503cc61; two runs at a time on a 2-core machine, picking-v1 partly
-#: three; minutes summed over the seeds).
+#: three; minutes summed over the seeds). Trading's DQN rate is that of its e4bd47b runs, which
+#: ``benchmarks/bench_training.py`` measured again idle at c6ab6b9 (2,820 steps per CPU s); the section's
+#: retrained runs were trained three at a time beside other work and took 7.6 times as long.
 RECORDED_S_PER_UNIT = {
     ("gym4real/dam-v0", "ppo"): _per_unit(28.7, 5, 200_000),
     ("gym4real/elevator-v0", "qlearning"): _per_unit(9.3, 5, 100_000),

@@ -8,11 +8,12 @@ and that changes only when the scores would change:
 - ``data``: the SHA-256 of each data file the environment reads (of the stand-in read in its place, where
   a file was missing);
 - ``trainer``: :data:`TRAINER_VERSION` (the version of our training code's output, pinned by the golden
-  smoke runs of ``tests/golden/test_golden_trainer.py``), the SHA-256 of each algorithm's preset settings,
+  smoke runs of ``tests/test_trainer_version.py``), the SHA-256 of each algorithm's preset settings,
   and the versions of Stable-Baselines3 and PyTorch when an algorithm trains with them. A section of the
-  JAX trainer's runs (``<env>-<budget>-jax``) says so: ``trainer: jax``, :data:`JAX_TRAINER_VERSION`, its
-  PPO preset's settings and the versions of jax, jaxlib, optax and numba (a section of the reference
-  trainer names none, as its fingerprints always did).
+  JAX trainer's runs (``<env>-<budget>-jax``) says so: ``trainer: jax``, :data:`JAX_TRAINER_VERSION`
+  (pinned by the guard run of ``tests/test_jax_trainer_version.py``), its PPO preset's settings and the
+  versions of jax, jaxlib, optax and numba (a section of the reference trainer names none, as its
+  fingerprints always did).
 
 A section whose recorded fingerprints (``report.json``) equal those of the installed code is **current**,
 whatever commit trained it; otherwise it is **stale**, and :func:`changes` names what changed. Claims are
@@ -32,11 +33,12 @@ from typing import Any
 from gym4real.core.errors import Gym4RealError
 
 #: The version of our training code's output (SB3 and tabular trainers, schedules, model selection). Raise
-#: it, and the golden hashes of ``tests/golden/test_golden_trainer.py``, when a change of the training code
+#: it, and the golden values of ``tests/test_trainer_version.py``, when a change of the training code
 #: changes what a seeded run trains; a change that moves code without changing its output keeps it.
 TRAINER_VERSION = 1
-#: The version of the JAX PPO trainer's output (:mod:`gym4real.rl.jax_ppo`); raise it when a change of that
-#: code changes what a seeded run trains.
+#: The version of the JAX PPO trainer's output (:mod:`gym4real.rl.jax_ppo`); raise it, and record the golden
+#: file of ``tests/test_jax_trainer_version.py`` (``python scripts/jax_trainer_golden.py --record``), when a
+#: change of that code changes what a seeded run trains.
 JAX_TRAINER_VERSION = 1
 #: The distributions whose versions the JAX trainer's fingerprint records.
 JAX_DISTRIBUTIONS = ("jax", "jaxlib", "optax", "numba")
@@ -114,8 +116,8 @@ def trainer_fingerprint(env_id: str, presets: dict[str, str], trainer: str = "sb
 
 def fingerprints(env_id: str, budget: str, trainer: str = "sb3") -> dict[str, Any]:
     """The installed fingerprints of a section of ``env_id`` at ``budget`` (by ``trainer``): protocol, data, trainer."""
-    from gym4real.results import provenance
     from gym4real.bench.seeds import presets
+    from gym4real.results import provenance
 
     return {
         "protocol": protocol_fingerprint(env_id),

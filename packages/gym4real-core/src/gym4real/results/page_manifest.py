@@ -48,9 +48,9 @@ def section_record(folder: Path, report: dict[str, Any], files: list[Path], stal
 def machines(folder: Path, report: dict[str, Any]) -> dict[str, Any]:
     """The CPU models that trained the section's runs and that tested them, as its files record them.
 
-    ``trained_on``: each CPU model of ``runs.csv`` (the machine that finished a run, and the machine of each
-    resume) with its number of runs, ``not recorded`` for runs that do not say; ``tested_on``: the test
-    phase's (``report.json``).
+    ``trained_on``: each CPU model of ``runs.csv`` (the machine that started a run, where recorded, the
+    machine that finished it, and the machine of each resume) with its number of runs, ``not recorded`` for
+    runs that do not say; ``tested_on``: the test phase's (``report.json``).
     """
     import pandas as pd
 
@@ -58,6 +58,8 @@ def machines(folder: Path, report: dict[str, Any]) -> dict[str, Any]:
     runs = pd.read_csv(folder / "runs.csv", dtype=RUNS_TEXT) if (folder / "runs.csv").exists() else pd.DataFrame()
     for row in runs.to_dict("records"):
         cpus = {str(row.get("cpu", NOT_RECORDED))}
+        if isinstance(row.get("started_on"), str) and row["started_on"] != NOT_RECORDED:
+            cpus.add(row["started_on"])
         resumes = row.get("resumes")
         if isinstance(resumes, str) and resumes.startswith("["):
             cpus |= {str(r.get("cpu", NOT_RECORDED)) for r in json.loads(resumes)}

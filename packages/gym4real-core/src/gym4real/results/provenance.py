@@ -15,7 +15,7 @@ import pandas as pd
 from gym4real.bench.versions import NOT_RECORDED
 from gym4real.rl.imported import imported_distributions, union
 from gym4real.rl.schedules import learning_rate_words
-from gym4real.rl.train import TrainingRun
+from gym4real.rl.train import TrainingRun, started_by
 
 #: Columns of ``runs.csv`` read as text: a commit such as ``266e395`` would otherwise be read as a number.
 RUNS_TEXT = {"trained_by": str}
@@ -77,9 +77,11 @@ def selected_checkpoint(curve: pd.DataFrame, min_improvement: float = 0.0) -> tu
 def runs_table(runs: list[TrainingRun]) -> pd.DataFrame:
     """``runs.csv``: one row per training run, its budget, cost, learning rate, kept checkpoint and settings.
 
-    ``trained_by`` is the code version that trained the run (``git describe --dirty``); ``cpu`` the CPU model
-    of the machine that finished it; ``resumes`` lists the checkpoints it went on from (JSON: unit, count, code
-    version, CPU model), ``[]`` for a run never interrupted.
+    ``trained_by`` is the code version that started the run from scratch (``git describe --dirty``; for a
+    run recorded before starts were, the one that finished it) and ``started_on`` the CPU model of the
+    machine that started it (``not recorded`` for those runs); ``cpu`` the CPU model of the machine that
+    finished it; ``resumes`` lists the checkpoints it went on from (JSON: unit, count, code version, CPU
+    model), ``[]`` for a run never interrupted.
     """
     rows = []
     for run in sorted(runs, key=lambda r: (r.algo, r.seed)):
@@ -104,7 +106,8 @@ def runs_table(runs: list[TrainingRun]) -> pd.DataFrame:
                 "selected_at": kept[0] if kept else None,
                 "selected_validation_return": kept[1] if kept else None,
                 "settings": json.dumps(hp, sort_keys=True),
-                "trained_by": record.get("versions", {}).get("gym4real (git)", "not recorded"),
+                "trained_by": started_by(record),
+                "started_on": record["started"]["cpu"] if "started" in record else NOT_RECORDED,
                 "cpu": record.get("cpu", NOT_RECORDED),
                 "resumes": json.dumps(record["resumes"]) if "resumes" in record else "not recorded",
             }

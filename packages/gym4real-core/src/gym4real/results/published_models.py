@@ -2,12 +2,14 @@
 
 Each training run's model (SB3: ``model.zip`` and, when the preset normalises observations, the statistics
 ``normalize.npz`` it was tested with) is copied into ``<env>-<budget>/models/<algo>-seed<S>/`` when its files
-total at most :data:`MAX_BYTES`; a tabular run's ``qtable.npz`` is published as its greedy policy
-(:func:`gym4real.rl.tabular.save_greedy_table`: the action of every state, which is all a test episode
-reads, at a few percent of the table's size), the trained table's SHA-256 listed beside it, so that
-``gym4real evaluate`` on it reruns that seed's test episodes. ``models.json`` lists every model, published or
-not, with the SHA-256 and size of each file, the ``gym4real evaluate`` command that tests a published one and
-the ``gym4real train`` command that trains it again (the only way to get a larger one, such as robofeeder's
+total at most :data:`MAX_BYTES`. A trained file that holds more than a test episode reads is published as a
+smaller one that acts the same, the trained file's SHA-256 listed beside it (:data:`SLIMMED`): a tabular
+run's ``qtable.npz`` as its greedy policy (:func:`gym4real.rl.tabular.save_greedy_table`: the action of every
+state, at a few percent of the table's size), an SB3 ``model.zip`` without its optimizer's state
+(:func:`gym4real.rl.model_file.save_without_optimizer_state`: about a third of a PPO file, half of a DQN
+one), so that ``gym4real evaluate`` on it reruns that seed's test episodes. ``models.json`` lists every
+model, published or not, with the SHA-256 and size of each file, the ``gym4real evaluate`` command that tests
+a published one and the ``gym4real train`` command that trains it again (the only way to get a larger one, such as robofeeder's
 CNNs). ``gym4real evaluate`` and ``bench`` refuse a published model whose files differ from the listed
 SHA-256 (:mod:`gym4real.bench.published`).
 
@@ -20,31 +22,34 @@ rows bit for bit.
 
 from __future__ import annotations
 
-import hashlib
 import json
 import shutil
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from gym4real.bench.published import FOLDER, LISTING
 from gym4real.bench.seeds import listed_seeds_flag
+from gym4real.core.datasets import sha256_of
 from gym4real.core.registry import slug
+from gym4real.rl.model_file import save_without_optimizer_state
 from gym4real.rl.tabular import QTABLE, save_greedy_table
-from gym4real.rl.train import TrainingRun
+from gym4real.rl.train import TrainingRun, started_by
 
 #: The largest model (all its files) published beside the results.
 MAX_BYTES = 5 * 1024 * 1024
 #: Files beside a model that a policy loads with it.
 COMPANIONS = ("normalize.npz",)
-
-
-def sha256_of(path: Path) -> str:
-    """The SHA-256 of a file, read in blocks."""
-    digest = hashlib.sha256()
-    with path.open("rb") as handle:
-        for block in iter(lambda: handle.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
+#: A trained model file published as a smaller one that acts the same: the function that writes it from the
+#: trained one, the ``models.json`` key that lists the trained file's hash, and what the published one keeps.
+SLIMMED: dict[str, tuple[Callable[[Path, Path], None], str, str]] = {
+    QTABLE: (save_greedy_table, "trained_table", "its greedy policy (the action of each state; values not kept)"),
+    "model.zip": (
+        save_without_optimizer_state,
+        "trained_model",
+        "without its optimizer's state (Adam's moments, which acting never reads)",
+    ),
+}
 
 
 def model_files(run: TrainingRun) -> list[Path]:
@@ -53,10 +58,14 @@ def model_files(run: TrainingRun) -> list[Path]:
 
 
 def _publish_file(source: Path, path: Path) -> Path:
-    """Write the published copy of a model file (a Q-table as its greedy policy) and return its path."""
+    """Write the published copy of a model file and return its path.
+
+    A Q-table is published as its greedy policy, an SB3 model without its optimizer's state (see
+    :data:`SLIMMED`); other files are copied.
+    """
     path.parent.mkdir(parents=True, exist_ok=True)
-    if source.name == QTABLE:
-        save_greedy_table(source, path)
+    if source.name in SLIMMED:
+        SLIMMED[source.name][0](source, path)
     else:
         shutil.copy(source, path)
     return path
@@ -89,7 +98,7 @@ def publish_models(runs: list[TrainingRun], section: Path, budget: str) -> list[
             **({} if run.trainer == "sb3" else {"trainer": run.trainer}),
             "seed": run.seed,
             "preset": run.preset,
-            "trained_by": record.get("versions", {}).get("gym4real (git)", "not recorded"),
+            "trained_by": started_by(record),
             "files": [{"name": p.name, "sha256": sha256_of(p), "bytes": p.stat().st_size} for p in files],
             "bytes": size,
             "published": published,
@@ -98,12 +107,13 @@ def publish_models(runs: list[TrainingRun], section: Path, budget: str) -> list[
                 f"--out runs/{slug(run.env_id)}/{budget}/{run.agent}/seed{run.seed}"
             ),
         }
-        if run.model_path.name == QTABLE:
-            entry["trained_table"] = {
-                "name": QTABLE,
+        if run.model_path.name in SLIMMED:
+            _, key, published_as = SLIMMED[run.model_path.name]
+            entry[key] = {
+                "name": run.model_path.name,
                 "sha256": sha256_of(run.model_path),
                 "bytes": run.model_path.stat().st_size,
-                "published_as": "its greedy policy (the action of each state; values not kept)",
+                "published_as": published_as,
             }
         if published:
             path = f"{section.name}/{FOLDER}/{name}/{run.model_path.name}"

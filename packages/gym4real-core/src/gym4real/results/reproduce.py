@@ -40,8 +40,8 @@ from gym4real.bench import stats, versions
 from gym4real.bench.benchmark import BenchmarkResult, benchmark, protocol
 from gym4real.bench.seeds import SeedRequest, check_request, seeds_flag
 from gym4real.core.errors import Gym4RealError
-from gym4real.core.registry import slug
 from gym4real.results import analysis, fingerprints, provenance, workspace
+from gym4real.results.artefacts import section_name
 from gym4real.results.plan import Item, plan
 from gym4real.results.published_models import publish_models
 from gym4real.results.run_files import DamagedRunError, damaged_file
@@ -91,7 +91,7 @@ def results_folder(out: Path, env_id: str, budget: str, trainer: str = "sb3") ->
 
     A section of the JAX trainer's runs is ``OUT/<env>-<budget>-jax``.
     """
-    return out / (f"{slug(env_id)}-{budget}" + ("" if trainer == "sb3" else f"-{trainer}"))
+    return out / section_name(env_id, budget, trainer)
 
 
 def pooled(result: BenchmarkResult, groups: dict[str, list[str]]) -> BenchmarkResult:

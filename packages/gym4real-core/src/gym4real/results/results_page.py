@@ -3,10 +3,11 @@
 :func:`write_page` reads every ``<env>-<budget>/`` folder of a reproduce output folder (its raw data
 ``episodes.csv`` and ``runs.csv``, ``report.json``, the statistics computed from ``episodes.csv`` --
 ``summary.csv``, ``improvement.csv``, ``claims.json`` -- its figures, or ``error.txt``) and writes beside
-them ``results.md``, ``claims.json``, ``claims.md`` (the short table of verdicts) and ``manifest.json``
-(the code version, package versions and data files). Given a page folder (a docs folder) it writes
-``index.md`` there with the same files, each env folder copied without its training runs, so that the page
-folder alone regenerates the page (``write_page(page)``).
+them ``results.md``, ``claims.json``, ``claims.md`` (the short table of verdicts), ``manifest.json``
+(the code version, package versions and data files) and, for an env with the sections of two PPO trainers,
+``trainers.json`` (:mod:`~gym4real.results.trainer_comparison`: the other trainer against SB3). Given a page
+folder (a docs folder) it writes ``index.md`` there with the same files, each env folder copied without its
+training runs, so that the page folder alone regenerates the page (``write_page(page)``).
 """
 
 from __future__ import annotations
@@ -24,16 +25,32 @@ import pandas as pd
 
 from gym4real.bench import stats
 from gym4real.bench.numbers import human
-from gym4real.results import analysis, summary_figure, workspace
-from gym4real.results.artefacts import FOLDER, MANIFEST, PAGE, RENDERED, DamagedResultsError, read_json, trainer_of
+from gym4real.results import analysis, summary_figure, trainer_comparison, workspace
+from gym4real.results.artefacts import (
+    FOLDER,
+    MANIFEST,
+    PAGE,
+    RENDERED,
+    DamagedResultsError,
+    read_json,
+    section_name,
+    trainer_of,
+)
 from gym4real.results.claims import QUANTITIES, RULES, VERDICTS
 from gym4real.results.fingerprints import section_changes
 from gym4real.results.headroom_page import headroom_table
 from gym4real.results.page_manifest import files_sha256, imported_by_all, section_record
 from gym4real.results.provenance import RUNS_TEXT
 from gym4real.results.published_models import FOLDER as MODELS
-from gym4real.results.section_provenance import currency_line, machine_caveat, models_lines, run_provenance
+from gym4real.results.section_provenance import (
+    code_versions,
+    currency_line,
+    machine_caveat,
+    models_lines,
+    run_provenance,
+)
 from gym4real.results.stand_ins import budget_mark, difference_lines
+from gym4real.rl.train import label
 
 #: The files of a results folder that the page folder holds.
 PUBLISHED = (
@@ -99,8 +116,7 @@ def _folders(out: Path) -> list[Path]:
     envs = sorted({(m["env"], m["trainer"] or "") for p in out.iterdir() if p.is_dir() and (m := FOLDER.match(p.name))})
     found = []
     for env, trainer in envs:
-        suffix = f"-{trainer}" if trainer else ""
-        paper, quick = out / f"{env}-paper{suffix}", out / f"{env}-quick{suffix}"
+        paper, quick = (out / section_name(env, budget, trainer or "sb3") for budget in ("paper", "quick"))
         if _has_results(paper):
             found.append(paper)
             continue
@@ -199,13 +215,11 @@ class Section:
 
 def _trained_by(trainer: str) -> str:
     """What a section's title says of its trainer: nothing for SB3 (the reference), else its agent's label."""
-    from gym4real.rl.train import label
-
     return "" if trainer == "sb3" else f", trainer `{label('ppo', trainer)}` (PPO trained by {trainer.upper()})"
 
 
 #: Each verdict's mark, so that the three are told apart at a glance (an emoji keeps its colour in any view);
-#: a claim whose agent has no test scores in the section (a JAX section's claims about ``ppo``) is not checked.
+#: a claim whose policy has no test scores in the section (a JAX section's claims about ``dqn``) is not checked.
 SYMBOLS = {"holds": "✅", "refuted": "❌", "inconclusive": "❔", "not checked": "➖"}
 
 
@@ -295,8 +309,88 @@ def _upper_references_line(report: dict[str, Any]) -> list[str]:
     return [f"Measured later, on the same test protocol: {text}; the other rows are this section's own.", ""]
 
 
-def _section(folder: Path, section: Section | None, version: str) -> list[str]:
-    """The page's section of one env folder; ``section`` is None when it has no results."""
+def trainer_comparisons(sections: list[Section]) -> list[dict[str, Any]]:
+    """Each section of a trainer other than SB3 against the SB3 section of its env and budget (issue 43).
+
+    Where both sections hold their PPO agent's runs (``ppo-jax`` and ``ppo``): the record of
+    :func:`~gym4real.results.trainer_comparison.compare` with the env, budget and both sections' names, computed
+    from the two ``episodes.csv``.
+    """
+    reference = {(s.report["env_id"], s.budget): s for s in sections if s.trainer == "sb3"}
+    found = []
+    for s in sections:
+        sb3 = reference.get((s.report["env_id"], s.budget))
+        if s.trainer == "sb3" or sb3 is None:
+            continue
+        if "ppo" not in set(sb3.episodes["policy"]) or label("ppo", s.trainer) not in set(s.episodes["policy"]):
+            continue
+        files = (f"{sb3.name}/episodes.csv", f"{s.name}/episodes.csv")
+        record = trainer_comparison.compare(sb3.episodes, s.episodes, s.trainer, files)
+        found.append(
+            {"env_id": s.report["env_id"], "budget": s.budget, "reference": sb3.name, "section": s.name, **record}
+        )
+    return found
+
+
+def _trainer_title(comparisons: list[dict[str, Any]]) -> str:
+    """The heading of the trainer comparisons: ``JAX trainer against SB3``."""
+    return f"{' and '.join(sorted({c['trainer'].upper() for c in comparisons}))} trainer against SB3"
+
+
+def _trainer_difference(c: dict[str, Any], scale: float) -> str:
+    """A trainer comparison's difference with its interval: ``-648.1 [-1,371, -39.68]``."""
+    return f"{_fmt(c['estimate'], scale)} {_ci(c['low'], c['high'], scale)}"
+
+
+def trainer_table(comparisons: list[dict[str, Any]], scales: dict[str, float]) -> list[str]:
+    """The page's table of the trainer comparisons (:func:`trainer_comparisons`); empty without one.
+
+    ``scales``: section name -> its scores' magnitude (float noise below it is shown as 0).
+    """
+    if not comparisons:
+        return []
+    lines = [
+        f"## {_trainer_title(comparisons)}",
+        "",
+        f"Issue 43's *{trainer_comparison.CLAIM}*: per env with sections of both trainers, the IQM of the "
+        "per-episode objective of each trainer's PPO (all its seeds' test episodes) with its 95 % interval, and "
+        "the difference other trainer - SB3 with its 95 % two-level interval: the test episodes drawn once for "
+        "both agents (they play the same episodes), each trainer's training seeds drawn on their own (independent "
+        f"runs). The rules are under [Methods](#methods); `{trainer_comparison.FILE}` holds these numbers.",
+        "",
+        "| env | IQM SB3 `ppo` [95 % CI] | IQM other trainer [95 % CI] | difference other - SB3 [95 % CI] "
+        "| verdict | rule |",
+        "|---|---|---|---|---|---|",
+    ]
+    for c in comparisons:
+        scale = scales.get(c["reference"], 0.0)
+        env = c["env_id"].split("/", 1)[-1]
+        under = "" if c["budget"] == "paper" else f"<br>{c['budget']}"
+        lines.append(
+            f"| `{env}`{under} | {_fmt(c['b_iqm'], scale)} {_ci(c['b_low'], c['b_high'], scale)} "
+            f"| `{c['a']}` {_fmt(c['a_iqm'], scale)} {_ci(c['a_low'], c['a_high'], scale)} "
+            f"| {_trainer_difference(c, scale)} | {_verdict(c['verdict'], c['budget'])} | {c['rule']} |"
+        )
+    return [*lines, ""]
+
+
+def _against_sb3(c: dict[str, Any], scale: float) -> list[str]:
+    """A section's line on its trainer against SB3 (:func:`trainer_comparisons`)."""
+    return [
+        f"Against SB3 (section `{c['reference']}`, *{trainer_comparison.CLAIM}*, the table "
+        f"*{_trainer_title([c])}* above): IQM `{c['a']}` - `{c['b']}` {_trainer_difference(c, scale)} at "
+        f"{_fmt(float(c['level']))}: {_verdict(c['verdict'], c['budget'])} ({c['rule']}).",
+        "",
+    ]
+
+
+def _section(
+    folder: Path, section: Section | None, version: str, comparison: dict[str, Any] | None = None
+) -> list[str]:
+    """The page's section of one env folder; ``section`` is None when it has no results.
+
+    ``comparison``: the section's trainer against SB3 (:func:`trainer_comparisons`), for a section of another trainer.
+    """
     m = FOLDER.match(folder.name)
     env, budget, by = m["env"], m["budget"], _trained_by(trainer_of(folder.name))  # type: ignore[index]
     if section is None:
@@ -322,7 +416,7 @@ def _section(folder: Path, section: Section | None, version: str) -> list[str]:
         *difference_lines(report, section.episodes),
         f"Command (reuses the finished runs of its output folder): `{report['command']}`",
         "",
-        f"Trained at code version `{section.version}`; training presets "
+        f"{code_versions(runs, section.version)}; training presets "
         f"{', '.join(f'`{a}/{p}`' for a, p in report['presets'].items())}; seeds "
         f"{', '.join(str(s) for s in report['seeds'])}; training wall time {_duration(train_s)} (sum over runs), "
         f"test {_duration(report['test_wall_time_s'])}. Raw data: "
@@ -410,6 +504,8 @@ def _section(folder: Path, section: Section | None, version: str) -> list[str]:
             )
         lines.append("")
         lines += [_shows(section, c) for c in claims if own] + ([""] if own else [])
+    if comparison is not None:
+        lines += _against_sb3(comparison, scale)
     for file, caption in _FIGURES:
         if (folder / file).exists():
             lines += [f"![{report['env_id']}: {caption}]({name}/{file})", ""]
@@ -445,6 +541,16 @@ def _short_notes(c: dict[str, Any], caveat: str) -> str:
     return "<br>" + "; ".join(notes) if notes else ""
 
 
+def _claim_section(c: dict[str, Any]) -> str:
+    """The section a claim's record was decided in (:func:`~gym4real.results.artefacts.section_name`)."""
+    return section_name(c["env_id"], c["budget"], c.get("trainer", "sb3"))
+
+
+def _agent(c: dict[str, Any]) -> str:
+    """The PPO agent of a claim record's trainer: ``ppo-jax`` for the JAX trainer (:func:`~gym4real.rl.train.label`)."""
+    return label("ppo", c.get("trainer", "sb3"))
+
+
 def claims_table(
     claims: list[dict[str, Any]],
     scales: dict[str, float] | None = None,
@@ -454,7 +560,8 @@ def claims_table(
 ) -> str:
     """Per claim of the paper (``own``: per own check): a short Markdown table, then each claim in full.
 
-    The table has four narrow columns: the env (with its budget under it unless a plain ``paper``), the claim's
+    The table has four narrow columns: the env (with its budget under it unless a plain ``paper``, and the
+    agent of its trainer when not SB3's: ``trainer `ppo-jax```), the claim's
     own words, the verdict with its mark (:data:`SYMBOLS`; a caveat or what the agent learned under it) and the
     deciding difference with its interval. A details block below gives each claim in full: where the paper
     makes it, the budget, the verdict with its notes, the rule that decided it and the deciding comparison with
@@ -472,14 +579,15 @@ def claims_table(
     details = []
     for c in claims:
         env = c["env_id"].split("/", 1)[-1]
-        key = f"{env}-{c['budget']}"
+        key = _claim_section(c)
         scale = (scales or {}).get(key, 0.0)
         comp = next((x for x in c["comparisons"] if x["b"] == c.get("deciding")), None)
         budget = (marks or {}).get(key, c["budget"])
         caveat = (caveats or {}).get(key, "")
-        under = "" if budget == "paper" else f"<br>{c['budget']}" + (", stand-in" if budget != c["budget"] else "")
+        under = [] if budget == "paper" else [c["budget"] + (", stand-in" if budget != c["budget"] else "")]
+        under += [f"trainer `{_agent(c)}`"] if c.get("trainer", "sb3") != "sb3" else []
         lines.append(
-            f"| `{env}`{under} | {_headline(c['text'])} "
+            f"| `{env}`{''.join(f'<br>{u}' for u in under)} | {_headline(c['text'])} "
             f"| {_verdict(c['verdict'], c['budget'])}{_short_notes(c, caveat)} "
             f"| {_difference(c, comp, scale) if comp else '-'} |"
         )
@@ -498,11 +606,12 @@ def _verdicts(
     claims: list[dict[str, Any]], scales: dict[str, float], marks: dict[str, str], caveats: dict[str, str]
 ) -> list[str]:
     """The verdict tables (the paper's claims, then this suite's own checks) and the three verdicts' definitions."""
-    paper = sum(c.get("paper", True) for c in claims)
+    paper = Counter(c.get("trainer", "sb3") for c in claims if c.get("paper", True))
+    others = "".join(f", and {n} on the runs of the {t.upper()} trainer" for t, n in paper.items() if t != "sb3")
     own = claims_table(claims, scales, own=True, marks=marks, caveats=caveats)
     legend = " · ".join(f"{SYMBOLS[word]} **{word}**" for word in VERDICTS)
     return [
-        f"## Verdicts on the paper's claims ({paper})",
+        f"## Verdicts on the paper's claims ({paper['sb3']}{others})",
         "",
         f"{legend} (defined below the tables); each claim in full under its table.",
         "",
@@ -539,7 +648,8 @@ def _summary_figure(sections: list[Section], out: Path) -> list[str]:
     ]
 
 
-def _method() -> list[str]:
+def _method(comparisons: bool = False) -> list[str]:
+    """The page's Methods; ``comparisons``: with the rules of the trainer comparisons (the page has one)."""
     return [
         "## Methods",
         "",
@@ -580,6 +690,18 @@ def _method() -> list[str]:
         "",
         *(f"- *{name}*: {words}." for name, words in RULES.items()),
         "",
+        *(
+            [
+                f"**Rules of the trainer comparisons** (*{trainer_comparison.CLAIM}*, issue 43). The difference "
+                "IQM(other trainer's PPO) - IQM(SB3's PPO) of the objective takes a 95 % two-level interval (the "
+                "test episodes drawn once for both, each trainer's seeds on their own):",
+                "",
+                *(f"- *{name}*: {words}." for name, words in trainer_comparison.RULES.items()),
+                "",
+            ]
+            if comparisons
+            else []
+        ),
     ]
 
 
@@ -678,11 +800,13 @@ def manifest(sections: list[Section], version: str) -> dict[str, Any]:
 
 
 def page_files(out: Path, text: str) -> dict[str, str]:
-    """The page's own files with their SHA-256: ``claims.json``, the summary figure and ``index.md``.
+    """The page's own files with their SHA-256: ``claims.json``, the summary figure, ``index.md``, ``trainers.json``.
+
+    ``trainers.json``: the trainer comparisons (:mod:`~gym4real.results.trainer_comparison`), where the page has one.
 
     ``text`` is the page, which an output folder holds as ``results.md``.
     """
-    files = [p for name in ("claims.json", summary_figure.FILE) if (p := out / name).exists()]
+    files = [p for name in ("claims.json", summary_figure.FILE, trainer_comparison.FILE) if (p := out / name).exists()]
     return {**files_sha256(files, out), PAGE: hashlib.sha256(text.encode()).hexdigest()}
 
 
@@ -743,8 +867,10 @@ def write_page(out: Path, page: str | Path | None = None) -> Path:
     sections = {folder: Section(folder) for folder in folders if _has_results(folder)}
     counts = Counter(s.version for s in sections.values())
     version = counts.most_common(1)[0][0] if counts else "none"
-    # the paper's claims are decided on the reference trainer's sections; another trainer's show in its section
-    claims = [c for s in sections.values() if s.trainer == "sb3" for c in s.claims]
+    # every claim of the reference trainer's sections; another trainer's where it was checked on its agent (its
+    # records name the trainer): a claim about an agent that trainer does not train shows in its section alone
+    claims = [c for s in sections.values() for c in s.claims if s.trainer == "sb3" or c["verdict"] != "not checked"]
+    comparisons = trainer_comparisons(list(sections.values()))
     scales = {s.name: s.scale for s in sections.values()}
     marks = {s.name: budget_mark(s.report, s.budget) for s in sections.values()}
     caveats = {s.name: machine_caveat(s.report) for s in sections.values()}
@@ -755,6 +881,7 @@ def write_page(out: Path, page: str | Path | None = None) -> Path:
         "",
         *([f"**Stale sections, flagged below: {', '.join(others)}.**", ""] if others else []),
         *_verdicts(claims, scales, marks, caveats),
+        *trainer_table(comparisons, scales),
         f"Rendered by code version `{record['rendered_by']}`; most sections trained at `{version}` (`manifest.json`). "
         f"Versions: {', '.join(f'{k} {v}' for k, v in record['versions'].items())}; {record['platform']}.",
         "",
@@ -763,11 +890,16 @@ def write_page(out: Path, page: str | Path | None = None) -> Path:
         *headroom_table(list(sections.values())),
     ]
     body: list[str] = []
+    against = {c["section"]: c for c in comparisons}
     for folder in folders:
-        body += _section(folder, sections.get(folder), version)
-    text = "\n".join(head + body + _method())
+        body += _section(folder, sections.get(folder), version, against.get(folder.name))
+    text = "\n".join(head + body + _method(bool(comparisons)))
     (out / "results.md").write_text(text)
     (out / "claims.json").write_text(json.dumps(claims, indent=1))
+    if comparisons:
+        (out / trainer_comparison.FILE).write_text(json.dumps(comparisons, indent=1))
+    else:  # a page without two trainers' sections of an env: no comparison file left from an earlier one
+        (out / trainer_comparison.FILE).unlink(missing_ok=True)
     (out / "claims.md").write_text(
         claims_table(claims, scales, marks=marks, caveats=caveats) + claims_table(claims, scales, True, marks, caveats)
     )
@@ -778,9 +910,11 @@ def write_page(out: Path, page: str | Path | None = None) -> Path:
     page = Path(page)
     page.mkdir(parents=True, exist_ok=True)
     (page / "index.md").write_text(text)
-    for name in ("claims.json", MANIFEST, summary_figure.FILE):
+    for name in ("claims.json", MANIFEST, summary_figure.FILE, trainer_comparison.FILE):
         if (out / name).exists() and (page / name).resolve() != (out / name).resolve():
             shutil.copy(out / name, page / name)
+    if not (out / trainer_comparison.FILE).exists():
+        (page / trainer_comparison.FILE).unlink(missing_ok=True)
     shutil.rmtree(page / "figures", ignore_errors=True)  # the layout before raw data: figures/<env>-<budget>/
     for folder in folders:
         _publish(folder, page)

@@ -66,6 +66,20 @@ def run_provenance(runs: pd.DataFrame | None, algo: str, seed: int) -> tuple[str
     return trained, _resumes(row["resumes"].iloc[0] if "resumes" in row else NOT_RECORDED)
 
 
+def code_versions(runs: pd.DataFrame | None, tested: str) -> str:
+    """Where a section's runs were trained (``runs.csv``'s ``trained_by``) and, when elsewhere, its test phase.
+
+    A section tested again at a later commit reuses its runs: the commit of ``report.json`` is the test's.
+    Runs recorded before ``runs.csv`` had ``trained_by`` are taken to be the test's commit, as the page said.
+    """
+    recorded = runs["trained_by"] if runs is not None and "trained_by" in runs else []
+    trained = sorted({v for v in recorded if isinstance(v, str) and v != NOT_RECORDED})
+    if not trained or trained == [tested]:
+        return f"Trained at code version `{tested}`"
+    names = ", ".join(f"`{v}`" for v in trained)
+    return f"Trained at code version{'s' if len(trained) > 1 else ''} {names} (test phase at `{tested}`)"
+
+
 def models_lines(folder: Path, name: str) -> list[str]:
     """The section's line on its trained models (``models.json``), and a blank line; none without a listing."""
     listing_path = folder / "models.json"

@@ -5,10 +5,13 @@ time, and gives the same rewards: the environments make the same calls, and the 
 of each row is its action of that observation alone (up to the rounding of a matrix product over a
 batch). Episodes that have ended are left out of the following steps.
 
-Where the domain registers a native batched env (``vector_entry_point``) and there are at least
-:data:`NATIVE_MIN_EPISODES` episodes, they run in it; else each episode in its own ``gymnasium.make``
-env (a native batch costs about as much a step as 30 single dam or microgrid steps: below that it is
-slower, see ``benchmarks/bench_training.py``).
+Where the domain registers a native batched env (``vector_entry_point``), they run in it when there are at
+least :data:`NATIVE_MIN_EPISODES` episodes, or when its copies give the single env's numbers bit for bit
+(:func:`gym4real.core.vector.exact_copies`: microgrid's compiled one, whose ten validation episodes take 1.4 s
+instead of 2.95 s); else each episode in its own ``gymnasium.make`` env (a native batch costs about as much a
+step as 30 single dam or microgrid steps without numba: below that it is slower, see
+``benchmarks/bench_training.py``). In the native env, too, only the running episodes' observations go through
+the policy, as a batch of those rows, so that exact copies give the single envs' rewards bit for bit.
 """
 
 from __future__ import annotations
@@ -18,6 +21,8 @@ from typing import Any, Protocol
 
 import gymnasium as gym
 import numpy as np
+
+from gym4real.core.vector import exact_copies
 
 
 class BatchPolicy(Protocol):
@@ -41,6 +46,13 @@ def _stack(observations: list[Any]) -> Any:
     return np.stack(observations)
 
 
+def _rows(observations: Any, rows: np.ndarray) -> Any:
+    """The ``rows`` of a batch of observations (a dict of arrays or an array), as a new batch."""
+    if isinstance(observations, dict):
+        return {k: v[rows] for k, v in observations.items()}
+    return observations[rows]
+
+
 class BatchEvaluation:
     """Seeded evaluation episodes of one environment, run as a batch by a :class:`BatchPolicy`.
 
@@ -49,8 +61,8 @@ class BatchEvaluation:
         env_kwargs: Keyword arguments of ``gymnasium.make`` (or of the native batched env).
         episodes: The number of episodes of one evaluation.
         seed: The seed of episode 0; episode ``i`` is seeded ``seed + i``.
-        native: Run in the domain's native batched env; default: when it has one and there are at least
-            :data:`NATIVE_MIN_EPISODES` episodes (and it batches this configuration).
+        native: Run in the domain's native batched env; default: when it has one (and it batches this
+            configuration) and there are at least :data:`NATIVE_MIN_EPISODES` episodes or its copies are exact.
     """
 
     def __init__(
@@ -59,12 +71,16 @@ class BatchEvaluation:
         self.episodes, self.seed = episodes, seed
         self.vector: gym.vector.VectorEnv[Any, Any, Any] | None = None
         self.envs: list[gym.Env[Any, Any]] = []
+        by_default = native is None
         if native is None:
-            native = episodes >= NATIVE_MIN_EPISODES and gym.spec(env_id).vector_entry_point is not None
+            native = gym.spec(env_id).vector_entry_point is not None
         if native:
             # a configuration the native env does not batch (upstream fidelity) runs in single envs
             with contextlib.suppress(ValueError):
                 self.vector = gym.make_vec(env_id, episodes, vectorization_mode="vector_entry_point", **env_kwargs)
+        if by_default and self.vector is not None and episodes < NATIVE_MIN_EPISODES and not exact_copies(self.vector):
+            self.vector.close()  # few episodes step faster in single envs
+            self.vector = None
         if self.vector is not None:
             self.single_action_space = self.vector.single_action_space
         else:
@@ -99,9 +115,15 @@ class BatchEvaluation:
         obs, _ = self.vector.reset(seed=self.seed)
         rewards: list[list[float]] = [[] for _ in range(self.episodes)]
         active = np.ones(self.episodes, dtype=bool)
+        actions: np.ndarray | None = None
         while active.any():
-            # the ended episodes' rows act too (the batch steps as a whole); their results are dropped
-            obs, reward, terminated, truncated, info = self.vector.step(policy.actions(obs))
+            running = np.flatnonzero(active)  # they act as a batch of their rows, as in single envs
+            acted = policy.actions(obs if running.size == self.episodes else _rows(obs, running))
+            if actions is None:
+                actions = acted
+            else:  # the ended episodes' copies repeat their last action; their results are dropped
+                actions[running] = acted
+            obs, reward, terminated, truncated, info = self.vector.step(actions)
             reward = np.asarray(info.get("scalar_reward", reward), dtype=np.float64)
             for i in np.flatnonzero(active):
                 rewards[i].append(float(reward[i]))

@@ -161,7 +161,7 @@ class JaxPPO:
     def __init__(self, env_id: str, hp: dict[str, Any], seed: int) -> None:
         jax, _ = jax_modules()
         from gym4real.rl import rollout_kernel
-        from gym4real.rl.jax_update import UpdateSettings, make_update, optimizer
+        from gym4real.rl.jax_update import UpdateSettings, epoch_orders, make_update, optimizer
         from gym4real.rl.sb3 import rescaled
 
         self.jax = jax
@@ -195,6 +195,7 @@ class JaxPPO:
             kl_adaptive=kl,
         )
         self.update = make_update(self.settings)
+        self.epoch_orders = epoch_orders  # each epoch's permutation, drawn before the update
         self.adam = optimizer()
         log_std_init = float((hp.get("policy_kwargs") or {}).get("log_std_init", 0.0))
         self.params = {k: jax.numpy.asarray(v) for k, v in initial_parameters(self.arch, log_std_init, seed).items()}
@@ -329,7 +330,8 @@ class JaxPPO:
         if not isinstance(self.schedule, KLAdaptive):
             self.rate = self.schedule(1.0 - self.timesteps / self.total)
         rate = jax.numpy.float32(self.rate)
-        self.params, self.opt_state, rate, kls = self.update(self.params, self.opt_state, rate, self._update_key, data)
+        orders = self.epoch_orders(self._update_key, self.settings.rows, self.settings.n_epochs)
+        self.params, self.opt_state, rate, kls = self.update(self.params, self.opt_state, rate, orders, data)
         self.rate = float(rate)
         return np.asarray(kls)
 

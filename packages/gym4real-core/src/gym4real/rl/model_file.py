@@ -285,3 +285,39 @@ def custom_objects(
     if "replay_buffer_class" in pickled:  # inference only: no need for the file's (up to 1M-transition) buffer
         objects["buffer_size"] = 1
     return objects
+
+
+def save_without_optimizer_state(source: Path, path: Path) -> None:
+    """Write a copy of the SB3 model file ``source`` whose optimizers hold no per-parameter state.
+
+    Every entry is kept byte for byte (the settings, the weights, the optimizers' parameter groups) except
+    the optimizers' state (Adam's moments: two more copies of the weights, which acting never reads),
+    written empty as a freshly built optimizer's is, and the entries are deflated (the text of the spaces'
+    bounds shrinks a hundredfold). SB3's ``load`` and :func:`gym4real.rl.sb3.load_model` read the copy as
+    they read ``source``, with the same weights and deterministic actions; training resumed from it would
+    restart Adam's moments.
+
+    Raises:
+        PolicyError: ``source`` is not a zip, or an ``*optimizer.pth`` entry is not an optimizer's state.
+    """
+    import io
+
+    import torch
+
+    try:
+        with zipfile.ZipFile(source) as archive, zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as out:
+            for info in archive.infolist():
+                content = archive.read(info)
+                if info.filename.endswith("optimizer.pth"):  # SB3's `<object>.optimizer.pth` entries
+                    state = torch.load(io.BytesIO(content), map_location="cpu", weights_only=True)
+                    if not isinstance(state, dict) or set(state) != {"state", "param_groups"}:
+                        raise PolicyError(
+                            f"`{source}`: its entry `{info.filename}` is not an optimizer's state "
+                            "(a dict of `state` and `param_groups`); save the model with Stable-Baselines3's `save`"
+                        )
+                    buffer = io.BytesIO()
+                    torch.save({"state": {}, "param_groups": state["param_groups"]}, buffer)
+                    content = buffer.getvalue()
+                out.writestr(zipfile.ZipInfo(info.filename, date_time=info.date_time), content, zipfile.ZIP_DEFLATED)
+    except zipfile.BadZipFile as exc:
+        raise PolicyError(f"`{source}` is not a Stable-Baselines3 model file (not a zip archive): {exc}") from exc

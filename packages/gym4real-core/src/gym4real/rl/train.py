@@ -4,8 +4,8 @@ A run folder holds ``settings.json`` (what is trained: env, algo, preset, seed, 
 JAX trainer, ``trainer: jax``), the
 model, the learning curve, a checkpoint while the run is unfinished, and ``run.json`` once it is finished
 (wall time, environment steps, versions, the distributions it imported, the CPU model of the machine that
-finished it and its resumes). Training in a folder that holds an unfinished run of the same
-settings resumes it; a folder of other settings is refused.
+finished it, the code version and CPU model that started it and its resumes). Training in a folder that holds
+an unfinished run of the same settings resumes it; a folder of other settings is refused.
 """
 
 from __future__ import annotations
@@ -19,9 +19,10 @@ from typing import Any
 
 from gym4real.bench.progress import ProgressDisplay
 from gym4real.bench.seeds import is_preset_file
-from gym4real.bench.versions import cpu_model, git_version
+from gym4real.bench.versions import NOT_RECORDED, cpu_model, git_version
 from gym4real.core.errors import ConfigError
 from gym4real.core.registry import slug
+from gym4real.rl.curves import LearningCurve
 from gym4real.rl.imported import imported_distributions
 from gym4real.rl.presets import load_preset
 from gym4real.rl.progress import Progress
@@ -189,6 +190,7 @@ def train(
         )
     settings_path.write_text(json.dumps(settings, indent=1))
     (folder / "run.json").unlink(missing_ok=True)
+    started = record_start(folder)
     resumes = record_resume(folder)
     timing = folder / "timing.json"
     previous = json.loads(timing.read_text())["wall_time_s"] if timing.exists() else 0.0
@@ -225,6 +227,7 @@ def train(
         model, steps = train_sb3(env_id, hp, seed, folder, report)
     if bar is not None:
         bar.close()
+    LearningCurve.load(folder, "episodes" if algo in ("qlearning", "sarsa") else "timesteps").draw()
     wall = previous + time.perf_counter() - start
     timing.unlink(missing_ok=True)
     run = TrainingRun(
@@ -240,16 +243,21 @@ def train(
         "steps_per_s": run.steps_per_s,
         "versions": versions(),
         "cpu": cpu_model(),
+        **({} if started is None else {"started": started}),
         "resumes": resumes,
         "imported": imported_distributions(),
     }
     (folder / "run.json").write_text(json.dumps(record, indent=1))
     (folder / RESUMES).unlink(missing_ok=True)
+    (folder / STARTED).unlink(missing_ok=True)
     return run
 
 
 #: The record of an unfinished run's resumes, kept beside its checkpoint until ``run.json`` takes it over.
 RESUMES = "resumes.json"
+
+#: The record of an unfinished run's start from scratch, kept beside its checkpoint until ``run.json`` takes it over.
+STARTED = "started.json"
 
 
 def checkpoint_progress(folder: Path) -> dict[str, Any] | None:
@@ -266,6 +274,39 @@ def checkpoint_progress(folder: Path) -> dict[str, Any] | None:
     return None
 
 
+#: The code version of a start or resume whose code had none (not a git checkout, no ``GYM4REAL_CODE_VERSION``).
+UNKNOWN = "unknown"
+
+
+def _segment() -> dict[str, str]:
+    """Who trains this stretch of a run: the code version (:data:`UNKNOWN` where none) and the CPU model."""
+    return {"code_version": versions().get("gym4real (git)", UNKNOWN), "cpu": cpu_model()}
+
+
+def record_start(folder: Path) -> dict[str, str] | None:
+    """The code version and CPU model that started the run from scratch (``started.json``), recorded now if this does.
+
+    None for an unfinished run that started before starts were recorded: its start is not known.
+    """
+    path = folder / STARTED
+    if checkpoint_progress(folder) is None:
+        path.write_text(json.dumps(_segment(), indent=1))
+    return json.loads(path.read_text()) if path.exists() else None
+
+
+def started_by(record: dict[str, Any]) -> str:
+    """The code version that started a finished run (its ``run.json`` ``record``).
+
+    A run recorded before starts were names the code version that finished it; a run whose code version is
+    not known (recorded before versions were, or started by code without one) says
+    :data:`~gym4real.bench.versions.NOT_RECORDED`.
+    """
+    if "started" in record:
+        version = str(record["started"]["code_version"])
+        return NOT_RECORDED if version == UNKNOWN else version
+    return str(record.get("versions", {}).get("gym4real (git)", NOT_RECORDED))
+
+
 def record_resume(folder: Path) -> list[dict[str, Any]]:
     """The run's resumes so far, this start appended when it resumes from a checkpoint (``resumes.json``).
 
@@ -276,7 +317,7 @@ def record_resume(folder: Path) -> list[dict[str, Any]]:
     resumes: list[dict[str, Any]] = json.loads(path.read_text()) if path.exists() else []
     at = checkpoint_progress(folder)
     if at is not None:
-        resumes.append({**at, "code_version": versions().get("gym4real (git)", "unknown"), "cpu": cpu_model()})
+        resumes.append({**at, **_segment()})
         path.write_text(json.dumps(resumes, indent=1))
     return resumes
 

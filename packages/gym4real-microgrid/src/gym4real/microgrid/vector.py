@@ -387,6 +387,11 @@ class MicrogridVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         if self._kernel is not None:
             self._compiled_args = self._kernel_constants()
 
+    @property
+    def exact_copies(self) -> bool:
+        """Whether every copy gives the single env's numbers bit for bit: with the compiled step (numba)."""
+        return self._kernel is not None
+
     def _exogenous_table(self) -> Array:
         """Per data row: PV of the hour elapsed, ask and bid of the upcoming hour, time angles (as the single env)."""
         s = self.single
