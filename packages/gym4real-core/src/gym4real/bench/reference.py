@@ -52,6 +52,7 @@ FINGERPRINT_FIELDS = (
     "episodes",
     "episodes_sha256",
     "objective",
+    "policy_forward",
 )
 
 
@@ -95,7 +96,7 @@ def fingerprint(env_id: str, env: gym.Env[Any, Any]) -> dict[str, Any]:
     episodes = load_object(spec.protocol)(dict(spec.env_kwargs))
     listing = json.dumps([{"seed": e.get("seed"), "options": e.get("options")} for e in episodes], default=str)
     dist, version = registry().distributions.get(registry().owners.get(env_id, ""), ("?", "?"))
-    return {
+    found = {
         "env_id": env_id,
         "distribution": dist,
         "version": version,
@@ -105,6 +106,9 @@ def fingerprint(env_id: str, env: gym.Env[Any, Any]) -> dict[str, Any]:
         "episodes_sha256": hashlib.sha256(listing.encode()).hexdigest(),
         "objective": list(spec.objective) or ["return"],
     }
+    if spec.portable_forward:  # named only where set: the other protocols' fingerprints stay as recorded
+        found["policy_forward"] = "portable"
+    return found
 
 
 def installed_fingerprint(env_id: str) -> dict[str, Any]:

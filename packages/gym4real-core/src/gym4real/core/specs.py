@@ -277,6 +277,9 @@ class BenchmarkSpec:
         placements: ``"module:function"``; ``function(env_kwargs)`` returns, per test episode of the protocol,
             where its object lies in the camera image (``(u, v)`` pixels, read by resetting the env with the
             episode's seed): the results page draws each success claim's rate over the workspace from them.
+        portable_forward: Score model-file policies with :mod:`gym4real.rl.portable_forward` (the same bits
+            on every CPU) instead of torch's kernels, which differ in the last bit between CPUs: for envs
+            whose dynamics turn an action's last bit into another episode (a robot's contacts).
     """
 
     env_id: str
@@ -291,6 +294,7 @@ class BenchmarkSpec:
     claims: tuple[Claim, ...] = ()
     rule_based: tuple[str, ...] = ()
     placements: str | None = None
+    portable_forward: bool = False
 
     def __post_init__(self) -> None:
         _check(bool(_ENTRY.match(self.protocol)), f"protocol `{self.protocol}` is not `module:function`")

@@ -79,12 +79,16 @@ class NormalizedPolicy:
     """A trained SB3 model as a deterministic ``obs -> action`` policy.
 
     Observations are normalised as in training; actions learnt on ``[-1, 1]`` are mapped onto the
-    environment's bounds.
+    environment's bounds. With ``portable``, the network runs :mod:`gym4real.rl.portable_forward` (the same
+    bits on every CPU) instead of torch.
     """
 
-    def __init__(self, model: Any, stats: dict[str, Any] | None, action_space: gym.Space[Any]) -> None:
+    def __init__(
+        self, model: Any, stats: dict[str, Any] | None, action_space: gym.Space[Any], portable: bool = False
+    ) -> None:
         self.model = model
         self.stats = stats
+        self.portable = portable
         self.bounds = None
         if isinstance(action_space, gym.spaces.Box) and rescaled(action_space):
             self.bounds = (action_space.low, action_space.high)
@@ -107,6 +111,9 @@ class NormalizedPolicy:
 
     def __call__(self, obs: Any) -> Any:
         """Return the model's deterministic action."""
+        if self.portable:  # a batch of one row
+            row = {k: np.asarray(v)[None] for k, v in obs.items()} if isinstance(obs, dict) else np.asarray(obs)[None]
+            return self.actions(row)[0]
         action, _ = self.model.predict(self._normalize(obs), deterministic=True)
         return self._to_bounds(action)
 
@@ -121,9 +128,14 @@ class NormalizedPolicy:
         policy = self.model.policy
         if policy.training:  # switching every module costs more than the forward pass: once
             policy.set_training_mode(False)
-        tensor, _ = policy.obs_to_tensor(self._normalize(obs))
-        with torch.inference_mode():
-            actions = policy._predict(tensor, deterministic=True).cpu().numpy()
+        if self.portable:
+            from gym4real.rl.portable_forward import deterministic_actions
+
+            actions = deterministic_actions(policy, self._normalize(obs))
+        else:
+            tensor, _ = policy.obs_to_tensor(self._normalize(obs))
+            with torch.inference_mode():
+                actions = policy._predict(tensor, deterministic=True).cpu().numpy()
         space = policy.action_space
         actions = actions.reshape((-1, *space.shape))
         if isinstance(space, gym.spaces.Box) and policy.squash_output:  # as SB3's predict
@@ -166,7 +178,19 @@ def load_model(env: gym.Env[Any, Any], path: str | Path, algo: str) -> Normalize
         raise PolicyError(f"`{path}` is not a loadable {algo_name(algo)} model for this environment: {exc}") from exc
     stats_path = path.with_name("normalize.npz")
     stats = dict(np.load(stats_path, allow_pickle=False)) if stats_path.exists() else None
-    return NormalizedPolicy(model, stats, env.action_space)
+    return NormalizedPolicy(model, stats, env.action_space, portable=portable_forward(env))
+
+
+def portable_forward(env: gym.Env[Any, Any]) -> bool:
+    """Whether ``env``'s evaluation protocol scores policies with the portable forward.
+
+    As its :attr:`~gym4real.core.specs.BenchmarkSpec.portable_forward` says (False for an env without a protocol).
+    """
+    from gym4real.core.registry import base_env, registry
+
+    spec = env.spec
+    benchmark = registry().benchmarks.get(base_env(spec.id)) if spec is not None else None
+    return benchmark is not None and benchmark.portable_forward
 
 
 def load_ppo(env: gym.Env[Any, Any], path: str | Path) -> NormalizedPolicy:

@@ -230,6 +230,7 @@ def gym4real_register_benchmarks() -> list[BenchmarkSpec | TrainingSpec]:
             description="100 seeded episodes (seeds 1000..1099), one object uniformly placed in the spawn area",
             step_unit="grasp attempt",
             claims=(PICKING_CLAIMS[env_id],),
+            portable_forward=True,  # the contacts turn an action's last bit into another grasp
         )
         for env_id in (PICKING_V0, PICKING_V1)
     ]
@@ -242,6 +243,7 @@ def gym4real_register_benchmarks() -> list[BenchmarkSpec | TrainingSpec]:
         figures="gym4real.robofeeder.figures:bench_planning",
         description="50 seeded episodes (seeds 1000..1049), three objects",
         step_unit="planning decision (one object chosen, or idle)",
+        portable_forward=True,
         claims=(
             Claim(
                 "PPO picks more efficiently than the Random strategy (Sec. 2.4.2: the average return of its planning "
