@@ -33,6 +33,7 @@ RESULTS = Path(__file__).parents[1] / "docs" / "results"
         ("trading-v0-paper", "ppo", 91352),
         ("dam-v0-paper-jax", "ppo-jax", 3),
         pytest.param("robofeeder-planning-v0-paper", "ppo", 0, marks=pytest.mark.slow),  # 50 MuJoCo episodes: 20 s
+        pytest.param("robofeeder-picking-v0-paper", "ppo", 123, marks=pytest.mark.slow),  # 100 episodes: 16 s
     ],
 )
 def test_the_listed_evaluate_command_reproduces_the_published_model_s_test_episodes(
