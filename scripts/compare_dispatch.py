@@ -28,6 +28,8 @@ from pathlib import Path
 
 import pandas as pd
 
+from gym4real.rl.train import label
+
 #: The variables of each setting (``default``: this machine's own choice).
 SETTINGS: dict[str, dict[str, str]] = {
     "default": {},
@@ -85,8 +87,9 @@ def main() -> None:
                 args.setting,
             )
             mine = pd.read_csv(out / "agent_episodes.csv")
-            theirs = published[(published["policy"] == model["algo"]) & (published["seed"] == model["seed"])]
-            row, count = _compare(f"{model['algo']} seed {model['seed']} (published model)", mine, theirs)
+            agent = label(model["algo"], model.get("trainer", "sb3"))  # its name in episodes.csv (ppo-jax, ...)
+            theirs = published[(published["policy"] == agent) & (published["seed"] == model["seed"])]
+            row, count = _compare(f"{agent} seed {model['seed']} (published model)", mine, theirs)
             rows.append(row)
             differing += count
         summary = pd.read_csv(folder / "summary.csv")
