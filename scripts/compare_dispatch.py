@@ -26,6 +26,7 @@ import sys
 import tempfile
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from gym4real.rl.train import label
@@ -51,14 +52,27 @@ def _run(command: list[str], cwd: Path, setting: str) -> None:
         sys.exit(f"`{shlex.join(command)}` failed:\n{done.stderr[-2000:]}")
 
 
+def _relative(mine: pd.Series, theirs: pd.Series) -> float:
+    """The largest ``|mine - theirs| / |theirs|`` (the absolute difference where ``theirs`` is 0)."""
+    a, b = mine.to_numpy(dtype=float), theirs.to_numpy(dtype=float)
+    scale = np.where(b == 0.0, 1.0, np.abs(b))
+    return float(np.max(np.abs(a - b) / scale))
+
+
 def _compare(label: str, mine: pd.DataFrame, theirs: pd.DataFrame) -> tuple[str, int]:
-    """A table row: episodes compared, episodes with a differing column, the columns that differ."""
+    """A table row: episodes compared, episodes with a differing column, the columns that differ.
+
+    Each differing column is named with its count of episodes and its largest relative difference (what a
+    model's stated ``agreement`` must cover).
+    """
     mine, theirs = (f.sort_values("episode").reset_index(drop=True) for f in (mine, theirs))
     if len(mine) != len(theirs) or not len(mine):
         sys.exit(f"{label}: {len(mine)} episodes rerun, {len(theirs)} published")
     columns = [c for c in mine.columns if c in theirs.columns and c not in _KEYS and mine[c].dtype.kind in "fiub"]
     differ = pd.concat([mine[c] != theirs[c] for c in columns], axis=1)
-    changed = [f"{c} ({int(differ[c].sum())})" for c in columns if differ[c].any()]
+    changed = [
+        f"{c} ({int(differ[c].sum())}, up to {_relative(mine[c], theirs[c]):.1e})" for c in columns if differ[c].any()
+    ]
     count = int(differ.any(axis=1).sum())
     return f"| {label} | {len(mine)} | {count} | {', '.join(changed) or 'none'} |", count
 
@@ -115,7 +129,8 @@ def main() -> None:
     )
     variables = " ".join(f"{k}={v}" for k, v in SETTINGS[args.setting].items()) or "no variables"
     print(f"{args.section} under `{args.setting}` ({variables}) on {cpu}:\n")
-    print("| rows | episodes | episodes that differ | columns that differ (episodes) |\n|---|---|---|---|")
+    print("| rows | episodes | episodes that differ | columns that differ (episodes, largest relative difference) |")
+    print("|---|---|---|---|")
     print("\n".join(rows))
     sys.exit(1 if differing else 0)
 
