@@ -2,7 +2,9 @@
 
 A native batched env whose copies give the single env's numbers bit for bit (observations, rewards, flags,
 info) says so with a boolean attribute ``exact_copies`` (microgrid's with its compiled step);
-:func:`exact_copies` reads it, False where an env does not declare it.
+:func:`exact_copies` reads it, False where an env does not declare it. One whose ``info`` costs much of its
+step may offer ``step_arrays(actions)``: ``step`` without building ``info`` (:func:`step_arrays` falls back
+to ``step``), for callers that never read it, such as a trainer's rollout.
 """
 
 from __future__ import annotations
@@ -39,6 +41,19 @@ def check_max_episode_steps(value: object) -> int | None:
 def exact_copies(vector: Any) -> bool:
     """Whether a native batched env declares that its copies give the single env's numbers bit for bit."""
     return bool(getattr(vector, "exact_copies", False))
+
+
+def step_arrays(vector: Any, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``vector.step(actions)`` without its ``info``: the env's own ``step_arrays`` where it has one.
+
+    The same observations, rewards and flags, and the same next state, as ``step`` (the env's ``info`` is
+    only not built).
+    """
+    own = getattr(vector, "step_arrays", None)
+    if own is not None:
+        return own(actions)  # type: ignore[no-any-return]
+    obs, reward, terminated, truncated, _ = vector.step(actions)
+    return obs, reward, terminated, truncated
 
 
 def copy_generators(env: Any, current: list[np.random.Generator] | None, seed: int | None) -> list[np.random.Generator]:

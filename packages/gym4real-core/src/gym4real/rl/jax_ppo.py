@@ -43,6 +43,7 @@ import gymnasium as gym
 import numpy as np
 
 from gym4real.core.errors import ConfigError, PolicyError
+from gym4real.core.vector import step_arrays
 from gym4real.rl.actor_critic import Model, Normalization, architecture, initial_parameters, network
 from gym4real.rl.progress import Progress
 from gym4real.rl.schedules import KLAdaptive, schedule
@@ -297,8 +298,7 @@ class JaxPPO:
             step(t, *raw, t > 0, *head, noise[t], *tail, True)
             if discrete:
                 env_actions[:] = r.env_actions[:, 0]
-            obs, reward, terminated, truncated, _ = venv.step(env_actions)
-            raw = (obs, reward, terminated, truncated)
+            raw = step_arrays(venv, env_actions)  # the info no update reads is not built
         step(steps, *raw, True, *head, noise[-1], *tail, False)
         self._raw = raw
         self.timesteps += steps * self.n_envs
