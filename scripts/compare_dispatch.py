@@ -19,7 +19,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
 import shlex
 import subprocess
 import sys
@@ -29,6 +28,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from gym4real.bench.versions import cpu_model
 from gym4real.rl.train import label
 
 #: The variables of each setting (``default``: this machine's own choice).
@@ -119,16 +119,8 @@ def main() -> None:
             row, count = _compare(policy, mine[mine["policy"] == policy], published[published["policy"] == policy])
             rows.append(row)
             differing += count
-    cpu = next(
-        (
-            line.split(":", 1)[1].strip()
-            for line in Path("/proc/cpuinfo").read_text().splitlines()
-            if "model name" in line
-        ),
-        platform.processor(),
-    )
     variables = " ".join(f"{k}={v}" for k, v in SETTINGS[args.setting].items()) or "no variables"
-    print(f"{args.section} under `{args.setting}` ({variables}) on {cpu}:\n")
+    print(f"{args.section} under `{args.setting}` ({variables}) on {cpu_model()}:\n")
     print("| rows | episodes | episodes that differ | columns that differ (episodes, largest relative difference) |")
     print("|---|---|---|---|")
     print("\n".join(rows))

@@ -8,6 +8,7 @@ column by column, what that seed's rows of ``episodes.csv`` record, within the a
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import os
 import platform
@@ -24,7 +25,8 @@ import pytest
 
 from gym4real.results.published_models import MAX_BYTES, sha256_of
 
-RESULTS = Path(__file__).parents[1] / "docs" / "results"
+ROOT = Path(__file__).parents[1]
+RESULTS = ROOT / "docs" / "results"
 
 
 @pytest.mark.parametrize(
@@ -48,19 +50,30 @@ def test_the_listed_evaluate_command_reproduces_the_published_model_s_test_episo
     (it said ``--seeds 0``, a count the CLI refuses; ``--seeds 1`` evaluated the plan's first seed instead).
 
     ``algo`` is the agent's name in ``episodes.csv`` (``ppo-jax``: a PPO model of the JAX trainer)."""
-    from gym4real.rl.train import label
-
     pytest.importorskip("stable_baselines3")
     folder = RESULTS / section
-    listing = json.loads((folder / "models.json").read_text())
-    model = next(m for m in listing if (label(m["algo"], m.get("trainer", "sb3")), m["seed"]) == (algo, seed))
+    model = _listed_model(section, algo, seed)
     assert model["published"] and model["bytes"] <= MAX_BYTES
     for file in model["files"]:
         assert sha256_of(folder / Path(model["path"]).parent / file["name"]) == file["sha256"], file["name"]
-    mine = listed_evaluate(model, RESULTS)
+    _assert_within_the_stated_agreement(model, listed_evaluate(model, RESULTS), section, algo, seed)
+
+
+def _listed_model(section: str, algo: str, seed: int) -> dict[str, Any]:
+    """The ``models.json`` entry of ``algo`` (its name in ``episodes.csv``) and ``seed`` in ``section``."""
+    from gym4real.rl.train import label
+
+    listing = json.loads((RESULTS / section / "models.json").read_text())
+    return next(m for m in listing if (label(m["algo"], m.get("trainer", "sb3")), m["seed"]) == (algo, seed))
+
+
+def _assert_within_the_stated_agreement(
+    model: dict[str, Any], mine: pd.DataFrame, section: str, algo: str, seed: int
+) -> None:
+    """``mine`` (a rerun's agent episodes) scores that seed's rows of ``episodes.csv`` as ``model`` states it."""
     assert set(mine["seed"]) == {seed}
     mine = mine.sort_values("episode").reset_index(drop=True)
-    published = pd.read_csv(folder / "episodes.csv")
+    published = pd.read_csv(RESULTS / section / "episodes.csv")
     theirs = published[(published["policy"] == algo) & (published["seed"] == seed)].sort_values("episode")
     theirs = theirs.reset_index(drop=True)
     assert len(theirs) == len(mine) > 0
@@ -74,15 +87,14 @@ def test_the_listed_evaluate_command_reproduces_the_published_model_s_test_episo
             np.testing.assert_allclose(mine[column], theirs[column], rtol=rtol, atol=0.0, err_msg=column)
 
 
-#: The kernels an AVX2 CPU without AVX-512 (an AMD EPYC Zen 1-3) gets from OpenBLAS, numpy and torch: another
-#: machine, on this one (``scripts/compare_dispatch.py``).
-AVX2_ONLY = {
-    "OPENBLAS_CORETYPE": "Haswell",
-    "NPY_DISABLE_CPU_FEATURES": "X86_V4 AVX512_ICL AVX512_SPR",
-    "ATEN_CPU_CAPABILITY": "avx2",
-    "MKL_ENABLE_INSTRUCTIONS": "AVX2",
-    "ONEDNN_MAX_CPU_ISA": "AVX2",
-}
+def _avx2_only() -> dict[str, str]:
+    """The kernels an AVX2 CPU without AVX-512 (an AMD EPYC Zen 1-3) gets from OpenBLAS, numpy and torch: another
+    machine, on this one (``scripts/compare_dispatch.py``'s setting)."""
+    spec = importlib.util.spec_from_file_location("compare_dispatch", ROOT / "scripts" / "compare_dispatch.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return dict(module.SETTINGS["avx2-only"])
 
 
 @pytest.mark.skipif(platform.machine() not in ("x86_64", "AMD64"), reason="the settings name x86-64 kernels")
@@ -99,30 +111,15 @@ def test_the_stated_agreement_holds_under_another_cpu_s_kernels(
     those kernels every dam episode differed (up to 4.4e-8 relative), so another machine would not have
     reproduced them as listed.
     """
-    from gym4real.rl.train import label
-
     pytest.importorskip("stable_baselines3")
-    folder = RESULTS / section
-    model = next(
-        m
-        for m in json.loads((folder / "models.json").read_text())
-        if (label(m["algo"], m.get("trainer", "sb3")), m["seed"]) == (algo, seed)
-    )
+    model = _listed_model(section, algo, seed)
     argv = shlex.split(model["evaluate"].split(" (in the page folder)")[0])
-    env = {k: v for k, v in os.environ.items() if k not in AVX2_ONLY} | AVX2_ONLY
+    setting = _avx2_only()
+    env = {k: v for k, v in os.environ.items() if k not in setting} | setting
     command = [sys.executable, "-m", "gym4real.cli", *argv[1:], "--out", str(tmp_path)]
     done = subprocess.run(command, cwd=RESULTS, env=env, capture_output=True, text=True, check=False)
     assert done.returncode == 0, done.stderr[-2000:]
-    mine = pd.read_csv(tmp_path / "agent_episodes.csv").sort_values("episode").reset_index(drop=True)
-    published = pd.read_csv(folder / "episodes.csv")
-    theirs = published[(published["policy"] == algo) & (published["seed"] == seed)].sort_values("episode")
-    theirs = theirs.reset_index(drop=True)
-    rtol = model.get("agreement", {}).get("rtol", 0.0)
-    for column in [c for c in mine.columns if c in theirs.columns and c not in ("policy", "seed", "episode")]:
-        if rtol == 0.0:
-            assert mine[column].tolist() == theirs[column].tolist(), column
-        else:
-            np.testing.assert_allclose(mine[column], theirs[column], rtol=rtol, atol=0.0, err_msg=column)
+    _assert_within_the_stated_agreement(model, pd.read_csv(tmp_path / "agent_episodes.csv"), section, algo, seed)
 
 
 def test_a_model_stated_to_agree_within_a_tolerance_is_not_said_to_agree_exactly() -> None:
