@@ -48,6 +48,12 @@ def _households(count: int) -> list[dict[str, Any]]:
     return rows
 
 
+def progress_seconds(stderr: str) -> list[float]:
+    """The elapsed seconds of each progress line of ``gym4real data synthesize microgrid`` (not on a terminal)."""
+    line = r"^synthesize microgrid: \d+/\d+ households \((?:\d+ %, )?(\d+) s\)$"
+    return [float(s) for s in re.findall(line, stderr, re.M)]
+
+
 def _command(jobs: int) -> dict[str, Any]:
     with tempfile.TemporaryDirectory() as cache:
         env = {**os.environ, "GYM4REAL_CACHE_DIR": cache}
@@ -56,7 +62,7 @@ def _command(jobs: int) -> dict[str, Any]:
         start = time.perf_counter()
         done = subprocess.run(args, env=env, capture_output=True, text=True, check=True)
         wall = time.perf_counter() - start
-        marks = [float(s) for s in re.findall(r"^synthesize microgrid: \d+/\d+ \((\d+) s\)$", done.stderr, re.M)]
+        marks = progress_seconds(done.stderr)
         digest = sha256_of(Path(cache) / standin.PATH)
     print(done.stderr.splitlines()[0])
     return {

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import random
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -349,6 +350,18 @@ def test_the_file_is_the_same_with_one_or_two_worker_processes(tmp_path: Path) -
     assert one.read_bytes() == two.read_bytes()
     assert done == [1, 2, 3]
     assert json.loads(two.with_suffix(".json").read_text())["sha256"] == sha256_of(one)
+
+
+def test_the_worker_processes_are_not_forked_from_a_threaded_process(tmp_path: Path) -> None:
+    """A forked child of a multithreaded process (JAX, torch) can deadlock; JAX warns at every fork."""
+    pytest.importorskip("richardsonpy")
+    pytest.importorskip("numba")
+    jnp = pytest.importorskip("jax.numpy")
+    jnp.zeros(1).block_until_ready()  # JAX's backend (its threads and its at-fork warning) started
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        standin.synthesize(tmp_path / "standin.csv", households=2, seed=11, jobs=2)
+    assert not [w for w in caught if "fork" in str(w.message)]
 
 
 def test_synthesize_without_numba_says_how_to_install_it(monkeypatch: pytest.MonkeyPatch) -> None:

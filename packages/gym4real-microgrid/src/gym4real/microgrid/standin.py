@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import functools
 import json
+import multiprocessing
 import random
 import sys
 from collections.abc import Callable
@@ -266,7 +267,8 @@ def synthesize(
     todo = [i for i in range(households) if not (staging / f"{i}.npy").exists()]
     done = households - len(todo)
     if jobs > 1 and len(todo) > 1:
-        with ProcessPoolExecutor(min(jobs, len(todo))) as pool:
+        spawn = multiprocessing.get_context("spawn")  # a forked child of a threaded process (JAX, torch) can hang
+        with ProcessPoolExecutor(min(jobs, len(todo)), mp_context=spawn) as pool:
             for future in as_completed([pool.submit(_write_household, i, seed, staging) for i in todo]):
                 future.result()
                 done += 1

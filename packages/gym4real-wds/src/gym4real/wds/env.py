@@ -230,8 +230,7 @@ class WDSEnv(gym.Env[np.ndarray, np.int64]):
             for d in range(1, tk.getnumdemands(ph, int(j)) + 1):
                 tk.setdemandpattern(ph, int(j), d, self._pattern_index)
 
-        self._demand_mask = np.zeros(net.n_nodes)
-        self._demand_mask[net.junction_pos] = 1.0
+        self._junctions = np.asarray(net.junction_pos)  # the nodes whose demand the DSR counts
         self._flow_to_m3h = net.flow_to_m3h
         self._lambda = cfg.reward.lambda_of
         self._ovf_start = self._lambda * net.tank_max_level
@@ -497,11 +496,19 @@ class WDSEnv(gym.Env[np.ndarray, np.int64]):
         return float(sum(tk.getlinkvalue(ph, k, en.FLOW) for k in self.network.pump_index))
 
     def _demands(self) -> tuple[float, float]:
-        eng, mask = self._engine, self._demand_mask
+        """Delivered and requested demand of the junctions, each sum correctly rounded (``math.fsum``).
+
+        Correct rounding makes the sums the same on every CPU; a BLAS dot product (``@``) adds in the order
+        of the kernels it picks for the CPU, and its last bit moved the DSR of a test episode under AVX2 kernels.
+        """
+        eng, junctions = self._engine, self._junctions
         if self._first_hour:
-            delivered = float(eng.node_values(en.DEMAND) @ mask)
+            delivered = math.fsum(eng.node_values(en.DEMAND)[junctions])
             return delivered, delivered
-        return float(eng.node_values(en.DEMANDFLOW) @ mask), float(eng.node_values(en.FULLDEMAND) @ mask)
+        return (
+            math.fsum(eng.node_values(en.DEMANDFLOW)[junctions]),
+            math.fsum(eng.node_values(en.FULLDEMAND)[junctions]),
+        )
 
     def _ovf_integral(self, a: np.ndarray, b: np.ndarray, dt: float) -> float:
         """Integral over dt of OVF along levels moving linearly from a to b."""
