@@ -374,6 +374,11 @@ TRAINED_UNDER_LOAD = {
     # c6ab6b9, `--presets gym4real/trading-v0:dqn:hourly`: 2,820 steps per CPU s, 66 s of training a run
     # (81 s with its validation, as recorded)
     ("gym4real/trading-v0", "dqn"),
+    # re-published at bade233 (gym4real-robofeeder 0.3.0) two at a time at nice 19 on 2 cores beside other work
+    # (paused at times), 2,434 s a run on average; idle here, at 0.3.0 as at 0.2.0 (`--presets
+    # gym4real/robofeeder-planning-v0:ppo:paper --steps 1000`): 14.3 and 13.6 training steps per CPU s, about
+    # 700 s of training a run before its validation (524 s recorded, from the e4bd47b runs on another machine)
+    ("gym4real/robofeeder-planning-v0", "ppo"),
 }
 
 
