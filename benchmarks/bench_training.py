@@ -54,7 +54,9 @@ Measured here (2-core Intel Xeon KVM guest, AVX-512, the other jobs paused), mic
 beside), wall time: 11 min 34 s at ``0932e39``; 10 min 4 s at ``89ef46e`` (the epochs' permutations drawn
 outside the compiled update); 9 min 58 s and 10 min 56 s at ``aa340a9`` (the learning-curve figure drawn
 once; the second with this option: 677 CPU s of training, 330 of evaluations); 11 min 40 s at ``ee4d779``
-and 11 min 32 s at ``fc59b5c`` (evaluations in the native batched env: 735 and 173 CPU s). Every run trained
+and 11 min 32 s at ``fc59b5c`` (evaluations in the native batched env: 735 and 173 CPU s); 9 min 22 s at ``65c51fb``
+with this option (the rollout's env steps without their ``info``, ``core.vector.step_arrays``: 595 and 164 CPU s;
+8 min 3 s as ``gym4real train`` timed alone). Every run before ``65c51fb`` trained
 the same model and curve, file for file; the spread is this shared machine's, whose speed moved by about 20 %
 within the hour (one idle iteration: 1.05 s, rollout 0.55 and update 0.46, at 00:40; 1.25 s at 02:05). One
 iteration alone is about 1.05-1.25 s: the 429 take 450-540 s; the rest is the evaluation worker on the second
