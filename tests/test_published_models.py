@@ -8,7 +8,6 @@ column by column, what that seed's rows of ``episodes.csv`` record, within the a
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import os
 import platform
@@ -17,6 +16,7 @@ import subprocess
 import sys
 from collections.abc import Callable
 from pathlib import Path
+from types import ModuleType
 from typing import Any
 
 import numpy as np
@@ -87,23 +87,13 @@ def _assert_within_the_stated_agreement(
             np.testing.assert_allclose(mine[column], theirs[column], rtol=rtol, atol=0.0, err_msg=column)
 
 
-def _avx2_only() -> dict[str, str]:
-    """The kernels an AVX2 CPU without AVX-512 (an AMD EPYC Zen 1-3) gets from OpenBLAS, numpy and torch: another
-    machine, on this one (``scripts/compare_dispatch.py``'s setting)."""
-    spec = importlib.util.spec_from_file_location("compare_dispatch", ROOT / "scripts" / "compare_dispatch.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return dict(module.SETTINGS["avx2-only"])
-
-
 @pytest.mark.skipif(platform.machine() not in ("x86_64", "AMD64"), reason="the settings name x86-64 kernels")
 @pytest.mark.parametrize(
     ("section", "algo", "seed"),
     [("dam-v0-paper", "ppo", 0), ("dam-v0-paper-jax", "ppo-jax", 3), ("trading-v0-paper", "dqn", 10473)],
 )
 def test_the_stated_agreement_holds_under_another_cpu_s_kernels(
-    section: str, algo: str, seed: int, tmp_path: Path
+    section: str, algo: str, seed: int, tmp_path: Path, load_script: Callable[[Path], ModuleType]
 ) -> None:
     """The listed command, run with an AVX2 CPU's kernels, scores that seed's rows within the stated agreement.
 
@@ -114,7 +104,8 @@ def test_the_stated_agreement_holds_under_another_cpu_s_kernels(
     pytest.importorskip("stable_baselines3")
     model = _listed_model(section, algo, seed)
     argv = shlex.split(model["evaluate"].split(" (in the page folder)")[0])
-    setting = _avx2_only()
+    # the kernels an AVX2 CPU without AVX-512 (an AMD EPYC Zen 1-3) gets: another machine, on this one
+    setting = load_script(ROOT / "scripts" / "compare_dispatch.py").SETTINGS["avx2-only"]
     env = {k: v for k, v in os.environ.items() if k not in setting} | setting
     command = [sys.executable, "-m", "gym4real.cli", *argv[1:], "--out", str(tmp_path)]
     done = subprocess.run(command, cwd=RESULTS, env=env, capture_output=True, text=True, check=False)
