@@ -264,7 +264,7 @@ def test_every_number_of_the_page_is_recomputed_from_episodes_csv(tmp_path: Path
     diff, low, high = stats.difference_ci(scores["dqn"], scores["default"], True, False, level=1 - 0.05 / 4)
     assert f"IQM dqn - default: {human(stats.snap(diff, scale))} {human_interval(low, high)}" in text
     assert "`p79` is identical to `p78` in every test episode" in text
-    assert "trained at `v1.0-3-gabc1234`" in text and "Trained at code version `v1.0-3-gabc1234`" in text
+    assert "every section tested at `v1.0-3-gabc1234`" in text and "Trained at code version `v1.0-3-gabc1234`" in text
     assert "gym4real reproduce gym4real/wds-v0 --budget paper --seeds 3 --out results/paper" in text
     claims = json.loads((tmp_path / "page" / "claims.json").read_text())
     spread = next(c for c in claims if c["relation"] == "less_variable")
@@ -272,6 +272,22 @@ def test_every_number_of_the_page_is_recomputed_from_episodes_csv(tmp_path: Path
     assert {"a", "b", "statistic", "estimate", "low", "high", "verdict", "rule"} <= set(p79)
     manifest = json.loads((tmp_path / "page" / "manifest.json").read_text())
     assert manifest["code_version"] == "v1.0-3-gabc1234" and manifest["data_files"]["wds-v0-paper"][0]["path"]
+
+
+def test_sections_of_other_code_and_package_versions_show_every_version_and_none_as_the_pages(tmp_path: Path) -> None:
+    """A re-published section (another commit, another domain version) does not hide behind the others' versions."""
+    out = tmp_path / "out"
+    _results_folder(out, "paper")
+    other = _jax_section(out, "paper")
+    report = json.loads((other / "report.json").read_text())
+    report["code_version"], report["platform"] = "def5678", "Linux-other"
+    report["versions"] = {"gym4real-core": "0.3.0", "mujoco": "4.0.0"}
+    (other / "report.json").write_text(json.dumps(report))
+    text = write_page(out, tmp_path / "page").read_text()
+    line = next(x for x in text.splitlines() if x.startswith("Rendered by code version"))
+    assert "sections tested at `def5678`, `v1.0-3-gabc1234` (each names its own)" in line
+    assert "gym4real-core 0.2.0 / 0.3.0, mujoco 4.0.0;" in line and line.endswith("; Linux; Linux-other.")
+    assert "most sections" not in text and "every section" not in line
 
 
 def test_a_section_that_read_stand_in_data_says_so(tmp_path: Path) -> None:

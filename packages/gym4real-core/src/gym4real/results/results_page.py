@@ -384,9 +384,7 @@ def _against_sb3(c: dict[str, Any], scale: float) -> list[str]:
     ]
 
 
-def _section(
-    folder: Path, section: Section | None, version: str, comparison: dict[str, Any] | None = None
-) -> list[str]:
+def _section(folder: Path, section: Section | None, comparison: dict[str, Any] | None = None) -> list[str]:
     """The page's section of one env folder; ``section`` is None when it has no results.
 
     ``comparison``: the section's trainer against SB3 (:func:`trainer_comparisons`), for a section of another trainer.
@@ -799,6 +797,29 @@ def manifest(sections: list[Section], version: str) -> dict[str, Any]:
     }
 
 
+def _versions_line(sections: list[Section], rendered_by: str) -> str:
+    """The page's code versions and the sections' package versions and platforms, each with every value it has.
+
+    Sections tested by other code versions or with other package versions (a re-published section) show each
+    value, so that the line never gives one section's versions as the page's.
+    """
+    tested = sorted({s.version for s in sections})
+    versions: dict[str, set[str]] = {}
+    for s in sections:
+        for name, value in s.report["versions"].items():
+            versions.setdefault(name, set()).add(str(value))
+    platforms = sorted({str(s.report["platform"]) for s in sections})
+    if len(tested) == 1:
+        where = f"every section tested at `{tested[0]}`"
+    else:
+        where = f"sections tested at {', '.join(f'`{v}`' for v in tested)} (each names its own)"
+    listed = ", ".join(f"{name} {' / '.join(sorted(values))}" for name, values in sorted(versions.items()))
+    return (
+        f"Rendered by code version `{rendered_by}`; {where} (`manifest.json`). "
+        f"Versions (the sections' own, every one named): {listed}; {'; '.join(platforms)}."
+    )
+
+
 def page_files(out: Path, text: str) -> dict[str, str]:
     """The page's own files with their SHA-256: ``claims.json``, the summary figure, ``index.md``, ``trainers.json``.
 
@@ -882,8 +903,7 @@ def write_page(out: Path, page: str | Path | None = None) -> Path:
         *([f"**Stale sections, flagged below: {', '.join(others)}.**", ""] if others else []),
         *_verdicts(claims, scales, marks, caveats),
         *trainer_table(comparisons, scales),
-        f"Rendered by code version `{record['rendered_by']}`; most sections trained at `{version}` (`manifest.json`). "
-        f"Versions: {', '.join(f'{k} {v}' for k, v in record['versions'].items())}; {record['platform']}.",
+        _versions_line(list(sections.values()), record["rendered_by"]),
         "",
         *_summary_figure(list(sections.values()), out),
         *suite_scores(list(sections.values())),
@@ -892,7 +912,7 @@ def write_page(out: Path, page: str | Path | None = None) -> Path:
     body: list[str] = []
     against = {c["section"]: c for c in comparisons}
     for folder in folders:
-        body += _section(folder, sections.get(folder), version, against.get(folder.name))
+        body += _section(folder, sections.get(folder), against.get(folder.name))
     text = "\n".join(head + body + _method(bool(comparisons)))
     (out / "results.md").write_text(text)
     (out / "claims.json").write_text(json.dumps(claims, indent=1))
