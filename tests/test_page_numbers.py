@@ -132,6 +132,30 @@ def test_the_planning_times_are_the_sections_own_and_the_elevator_section_repeat
     assert elevator and f"{elevator.group(1)} s" == rows["elevator"].strip()
 
 
+def test_the_oracle_paragraph_counts_the_published_ppo_rows_that_score_more_than_the_oracle() -> None:
+    """docs/headroom.md's robofeeder paragraph and table row: where the published PPO beats `oracle` (not a bound)."""
+    text = section("robofeeder")
+    table = next(line for line in HEADROOM.splitlines() if line.startswith("| `robofeeder-*` | `oracle` |"))
+    for env in ("planning", "picking"):
+        rows = pd.read_csv(RESULTS / f"robofeeder-{env}-v0-paper" / "episodes.csv")
+        oracle = rows[rows["policy"] == "oracle"].set_index("episode")["objective"]
+        ppo = rows[rows["policy"] == "ppo"]
+        margin = ppo["objective"].to_numpy() - oracle.loc[ppo["episode"]].to_numpy()
+        above = ppo[margin > 0]
+        found = re.search(
+            rf"on {env}-v0 (?:the published PPO scores more than it )?on (\d+) of the (\d+)(?: test episodes)? "
+            rf"\((\d+) seed-episode rows?, by (?:up to )?({NUMBER})\)",
+            " ".join(text.split()),
+        )
+        assert found, env
+        assert (int(found[1]), int(found[2]), int(found[3])) == (above["episode"].nunique(), len(oracle), len(above))
+        assert agrees(found[4], float(margin.max())), env
+        episodes, total, most = re.search(
+            rf"on (\d+) of {env}-v0's (\d+)(?: test episodes)? \(by (?:up to )?({NUMBER})\)", table
+        ).groups()  # type: ignore[union-attr]
+        assert (int(episodes), int(total)) == (above["episode"].nunique(), len(oracle)) and agrees(most, margin.max())
+
+
 def test_the_readme_counts_the_sections_and_the_stand_in_budget_as_the_results_do() -> None:
     readme = " ".join((ROOT / "README.md").read_text(encoding="utf-8").split())
     words = {"six": 6, "seven": 7, "eight": 8, "nine": 9, "ten": 10}
