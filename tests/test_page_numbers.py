@@ -24,6 +24,7 @@ from gym4real.bench import stats, suite_score, upper_reference
 from gym4real.bench.benchmark import protocol
 from gym4real.bench.episodes import score_matrices
 from gym4real.bench.numbers import human
+from gym4real.core.registry import upper_reference as reference_spec
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "docs" / "results"
@@ -154,6 +155,9 @@ def test_the_oracle_paragraph_counts_the_published_ppo_rows_that_score_more_than
             rf"on (\d+) of {env}-v0's (\d+)(?: test episodes)? \(by (?:up to )?({NUMBER})\)", table
         ).groups()  # type: ignore[union-attr]
         assert (int(episodes), int(total)) == (above["episode"].nunique(), len(oracle)) and agrees(most, margin.max())
+        if env == "planning":  # the oracle's registered note, which `evaluate` writes beside its score
+            note = reference_spec(f"gym4real/robofeeder-{env}-v0", "oracle").bound_note
+            assert f"on {above['episode'].nunique()} of the {len(oracle)} test episodes (by up to {most})" in note
 
 
 def test_the_readme_counts_the_sections_and_the_stand_in_budget_as_the_results_do() -> None:
