@@ -257,6 +257,24 @@ def test_a_model_without_its_optimizer_state_acts_as_the_trained_one_and_is_smal
             assert torch.equal(mine, theirs)
 
 
+def test_the_published_copy_is_a_function_of_the_trained_file_whenever_it_is_written(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """An unpublished model (picking-v1's, 137 MiB) is listed by its published copy's SHA-256: a later upload
+    re-creates that copy from the trained file, so the copy must not depend on when it is written."""
+    import time
+
+    from gym4real.rl.model_file import save_without_optimizer_state
+
+    trained, first, later = tmp_path / "trained.zip", tmp_path / "first.zip", tmp_path / "later.zip"
+    _saved_model("ppo", "gym4real/dam-v0", trained)
+    save_without_optimizer_state(trained, first)
+    now = time.time()
+    monkeypatch.setattr(time, "time", lambda: now + 3 * 365 * 86400)  # written three years later
+    save_without_optimizer_state(trained, later)
+    assert later.read_bytes() == first.read_bytes()
+
+
 def test_a_file_whose_optimizer_entry_is_not_an_optimizer_state_is_not_published(tmp_path: Path) -> None:
     import io
 

@@ -9,9 +9,11 @@ state, at a few percent of the table's size), an SB3 ``model.zip`` without its o
 (:func:`gym4real.rl.model_file.save_without_optimizer_state`: about a third of a PPO file, half of a DQN
 one), so that ``gym4real evaluate`` on it reruns that seed's test episodes. ``models.json`` lists every
 model, published or not, with the SHA-256 and size of each file, the ``gym4real evaluate`` command that tests
-a published one and the ``gym4real train`` command that trains it again (the only way to get a larger one, such as robofeeder's
-CNNs). ``gym4real evaluate`` and ``bench`` refuse a published model whose files differ from the listed
-SHA-256 (:mod:`gym4real.bench.published`).
+a published one and the ``gym4real train`` command that trains it again. A model over :data:`MAX_BYTES`
+(picking-v1's CNNs) is listed by the SHA-256 of the copy it would be published as; that copy depends on the
+trained file alone, not on when it is written, so a copy uploaded elsewhere later can be checked against it.
+``gym4real evaluate`` and ``bench`` refuse a published model whose files differ from the listed SHA-256
+(:mod:`gym4real.bench.published`).
 
 A model's ``note`` says, where it was measured, how ``gym4real evaluate`` on it agrees with its seed's rows
 of ``episodes.csv`` on which machines ("bit for bit" only where every episode and column is equal);
