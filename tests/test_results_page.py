@@ -288,6 +288,9 @@ def test_sections_of_other_code_and_package_versions_show_every_version_and_none
     assert "sections tested at `def5678`, `v1.0-3-gabc1234` (each names its own)" in line
     assert "gym4real-core 0.2.0 / 0.3.0, mujoco 4.0.0;" in line and line.endswith("; Linux; Linux-other.")
     assert "most sections" not in text and "every section" not in line
+    manifest = json.loads((tmp_path / "page" / "manifest.json").read_text())  # the line's source, as its twin
+    assert manifest["versions"] == {"gym4real-core": "0.2.0 / 0.3.0", "mujoco": "4.0.0"}
+    assert manifest["platform"] == "Linux; Linux-other"
 
 
 def test_a_section_that_read_stand_in_data_says_so(tmp_path: Path) -> None:

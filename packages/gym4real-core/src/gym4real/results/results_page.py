@@ -779,44 +779,41 @@ def manifest(sections: list[Section], version: str) -> dict[str, Any]:
 
     ``rendered_by`` is the code that wrote the page; ``provenance`` holds per section its command,
     fingerprints, the distributions it imported, its models and the SHA-256 of every file it publishes
-    (:mod:`~gym4real.results.page_manifest`); ``imported`` is their union.
+    (:mod:`~gym4real.results.page_manifest`); ``imported`` is their union. ``code_version`` is the commit that
+    tested the most sections; ``versions`` and ``platform`` hold every value of the sections' reports (a
+    distribution at two versions as ``0.2.0 / 0.3.0``, platforms joined by ``; ``), so that neither gives one
+    section's as the page's.
     """
     from gym4real.bench.versions import code_version
 
-    main = next((s for s in sections if s.version == version), None)
     records = {s.name: section_record(s.folder, s.report, published_files(s.folder), s.stale) for s in sections}
+    versions: dict[str, set[str]] = {}
+    for s in sections:
+        for name, value in s.report["versions"].items():
+            versions.setdefault(name, set()).add(str(value))
     return {
         "code_version": version,
         "rendered_by": code_version(),
         "sections": {s.name: s.version for s in sections},
         "imported": imported_by_all(records),
         "provenance": records,
-        "versions": main.report["versions"] if main else {},
-        "platform": main.report["platform"] if main else "",
+        "versions": {name: " / ".join(sorted(values)) for name, values in sorted(versions.items())},
+        "platform": "; ".join(sorted({str(s.report["platform"]) for s in sections})),
         "data_files": {s.name: s.report["data_files"] for s in sections},
     }
 
 
-def _versions_line(sections: list[Section], rendered_by: str) -> str:
-    """The page's code versions and the sections' package versions and platforms, each with every value it has.
-
-    Sections tested by other code versions or with other package versions (a re-published section) show each
-    value, so that the line never gives one section's versions as the page's.
-    """
-    tested = sorted({s.version for s in sections})
-    versions: dict[str, set[str]] = {}
-    for s in sections:
-        for name, value in s.report["versions"].items():
-            versions.setdefault(name, set()).add(str(value))
-    platforms = sorted({str(s.report["platform"]) for s in sections})
+def _versions_line(record: dict[str, Any]) -> str:
+    """The page's line of code versions, package versions and platforms, from its :func:`manifest`."""
+    tested = sorted(set(record["sections"].values()))
     if len(tested) == 1:
         where = f"every section tested at `{tested[0]}`"
     else:
         where = f"sections tested at {', '.join(f'`{v}`' for v in tested)} (each names its own)"
-    listed = ", ".join(f"{name} {' / '.join(sorted(values))}" for name, values in sorted(versions.items()))
+    listed = ", ".join(f"{name} {value}" for name, value in record["versions"].items())
     return (
-        f"Rendered by code version `{rendered_by}`; {where} (`manifest.json`). "
-        f"Versions (the sections' own, every one named): {listed}; {'; '.join(platforms)}."
+        f"Rendered by code version `{record['rendered_by']}`; {where} (`manifest.json`). "
+        f"Versions (the sections' own, every one named): {listed}; {record['platform']}."
     )
 
 
@@ -903,7 +900,7 @@ def write_page(out: Path, page: str | Path | None = None) -> Path:
         *([f"**Stale sections, flagged below: {', '.join(others)}.**", ""] if others else []),
         *_verdicts(claims, scales, marks, caveats),
         *trainer_table(comparisons, scales),
-        _versions_line(list(sections.values()), record["rendered_by"]),
+        _versions_line(record),
         "",
         *_summary_figure(list(sections.values()), out),
         *suite_scores(list(sections.values())),
